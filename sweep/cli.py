@@ -1,0 +1,149 @@
+"""Command line: `sweep map` for one energy map; the sweep commands are registered from cli_sweep.
+
+Input is validated once, here at the edge, before anything is written: a bad value gives a
+one-line message and exit code 2.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from . import __version__
+from .model import (Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part)
+
+
+class InputError(click.ClickException):
+    """A one-line error for bad user input (exit code 2, like click's usage errors)."""
+
+    exit_code = 2
+
+
+@contextlib.contextmanager
+def numba_threads(threads: int | None):
+    """Run with `threads` Numba threads (default: SLURM_CPUS_PER_TASK, else all cores)."""
+    import numba
+
+    if threads is None and os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
+        threads = int(os.environ["SLURM_CPUS_PER_TASK"])
+    previous = numba.get_num_threads()
+    if threads is not None:
+        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
+            raise InputError(f"--threads must be between 1 and "
+                             f"{numba.config.NUMBA_NUM_THREADS}, got {threads}")
+        numba.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
+@click.group(context_settings=dict(help_option_names=["-h", "--help"], max_content_width=100))
+@click.version_option(__version__, prog_name="sweep")
+def main():
+    """Friction-based potential energy maps for two-finger tendon-pulley grippers.
+
+    `sweep map` computes one map (one design, one part, one command); the sweep commands run the
+    paper's design-space search from a YAML config, on one machine or as an HPC array job.
+    """
+
+
+def _check_writable_target(path: Path, option: str) -> None:
+    parent = path.expanduser().resolve().parent
+    probe = parent
+    while not probe.exists():
+        probe = probe.parent
+    if not os.access(probe, os.W_OK):
+        raise InputError(f"{option}: cannot write under {probe}")
+    if path.exists() and path.is_dir():
+        raise InputError(f"{option}: {path} is a directory")
+
+
+@main.command("map")
+@click.option("--l1", type=float, required=True, help="Proximal link length.")
+@click.option("--l2", type=float, required=True, help="Distal link length.")
+@click.option("--r1", type=float, required=True, help="Proximal pulley radius.")
+@click.option("--r2", type=float, required=True, help="Distal pulley radius (R = r2/r1).")
+@click.option("--w", "w", type=float, required=True, help="Palm width (finger bases at +-w/2).")
+@click.option("--r", "r", type=float, required=True, help="Part (disc) radius.")
+@click.option("--mu", type=float, required=True, help="Static friction coefficient part-links.")
+@click.option("--h", "h", type=float, default=0.05, show_default=True, help="Grid spacing.")
+@click.option("--xlim", type=(float, float), default=None, metavar="XMIN XMAX",
+              help="Window in x (default: the whole reach, mirror-symmetric).")
+@click.option("--ylim", type=(float, float), default=None, metavar="YMIN YMAX",
+              help="Window in y (default: from the palm row y = r to the whole reach).")
+@click.option("--f-left", type=float, default=1.0, show_default=True,
+              help="Left tendon tension.")
+@click.option("--f-right", type=float, default=1.0, show_default=True,
+              help="Right tendon tension.")
+@click.option("--theta2-min", type=float, default=-5.0, show_default=True,
+              help="Distal lower joint limit (deg, <= 0).")
+@click.option("--theta2-max", type=float, default=90.0, show_default=True,
+              help="Distal upper joint limit (deg).")
+@click.option("--reconfig-step", type=float, default=Accuracy.reconfig_step, show_default=True,
+              help="Reconfiguration step in theta1 (rad) before bracketing the stop.")
+@click.option("--root-tol", type=float, default=Accuracy.root_tol, show_default=True,
+              help="Root tolerance of the reconfiguration stop (rad).")
+@click.option("--threads", type=int, default=None,
+              help="Numba threads (default: SLURM_CPUS_PER_TASK or all cores).")
+@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="Map file to write (HDF5; opens with xarray, engine='h5netcdf').")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=Path),
+              default=None, help="Also draw the map to this PNG.")
+def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
+                theta2_max, reconfig_step, root_tol, threads, out, plot_path):
+    """Compute one energy map and write it to --out (and optionally a picture to --plot).
+
+    Per grid point of part centres: finger configurations and modes, energy, class, part
+    equilibrium, containment, L_open, trajectory end state and caging score. Example:
+
+        sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
+    """
+    from .maps import check_memory, compute_map, map_grid
+    from .model import validate_inputs
+
+    design = Design(l1, l2, r1, r2, w)
+    part = Part(r, mu)
+    command = Command(f_left, f_right)
+    grid = Grid(h=h, xlim=tuple(xlim) if xlim else None, ylim=tuple(ylim) if ylim else None)
+    limits = Limits(theta2_min_deg=theta2_min, theta2_max_deg=theta2_max)
+    accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol)
+    try:
+        validate_inputs(design, part, command, limits, accuracy, Effects())
+        g = map_grid(design, part, grid)
+        check_memory(g.x.size * g.y.size)
+    except ModelInputError as err:
+        raise InputError(str(err)) from None
+    _check_writable_target(out, "--out")
+    if plot_path is not None:
+        _check_writable_target(plot_path, "--plot")
+
+    from .mapfile import describe, write_map
+
+    with numba_threads(threads):
+        m = compute_map(design, part, command, grid, limits, accuracy)
+    write_map(out, m)
+    click.echo(describe(m))
+    click.echo(f"wrote {out}")
+    if plot_path is not None:
+        from .plot import plot_map
+
+        plot_map(m, plot_path)
+        click.echo(f"wrote {plot_path}")
+
+
+def _register_sweep_commands() -> None:
+    try:
+        from . import cli_sweep
+    except ImportError:  # pragma: no cover - only while the sweep commands are being built
+        return
+    cli_sweep.register(main)
+
+
+_register_sweep_commands()
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

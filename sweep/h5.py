@@ -1,0 +1,145 @@
+"""Self-describing HDF5 with h5py: atomic writes, dimension scales, CF flag attributes, provenance.
+
+Every file this package writes goes through `atomic_file`: it is written under a temporary name in
+the same directory and renamed into place only when complete, so a file with the final name is
+always whole. Dimensions are HDF5 dimension scales, which `xarray.open_dataset(..., engine="h5netcdf")`
+reads as labelled coordinates.
+"""
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import platform
+import sys
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__
+
+
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike, mode: str = "w"):
+    """Yield an open h5py.File at a temporary name; rename to `path` only if the block succeeds."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        with h5py.File(tmp, mode) as f:
+            yield f
+        # fsync before rename so a power cut cannot leave a complete name over incomplete data
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_coordinate(f: h5py.Group, name: str, values, attrs: Mapping | None = None) -> h5py.Dataset:
+    """A 1-D coordinate variable that is also the dimension scale of dimension `name`."""
+    values = np.asarray(values)
+    if values.dtype.kind in "UO":
+        ds = f.create_dataset(name, data=np.array(values, dtype=object), dtype=h5py.string_dtype())
+    else:
+        ds = f.create_dataset(name, data=values)
+    ds.make_scale(name)
+    _set_attrs(ds, attrs)
+    return ds
+
+
+def write_variable(f: h5py.Group, name: str, data, dims: Sequence[str],
+                   attrs: Mapping | None = None, compression: bool = True) -> h5py.Dataset:
+    """An n-D variable whose axes are attached to the named dimension scales in `f`."""
+    data = np.asarray(data)
+    if data.ndim != len(dims):
+        raise ValueError(f"{name}: {data.ndim}-D data with dims {dims}")
+    kwargs = {}
+    if compression and data.size >= 1024:
+        kwargs = dict(compression="gzip", compression_opts=4, shuffle=True)
+    ds = f.create_dataset(name, data=data, **kwargs)
+    for axis, dim in enumerate(dims):
+        ds.dims[axis].attach_scale(f[dim])
+    _set_attrs(ds, attrs)
+    return ds
+
+
+def flag_attrs(meanings: Sequence[str], long_name: str, **extra) -> dict:
+    """CF attributes of a categorical variable coded 0..n-1."""
+    return dict(long_name=long_name, flag_values=np.arange(len(meanings), dtype=np.int8),
+                flag_meanings=" ".join(meanings), **extra)
+
+
+def provenance() -> dict:
+    """Versions of everything that decides the numbers, for the root attributes."""
+    import numba
+    import scipy
+
+    return dict(
+        sweep_version=__version__,
+        python_version=sys.version.split()[0],
+        numpy_version=np.__version__,
+        numba_version=numba.__version__,
+        scipy_version=scipy.__version__,
+        h5py_version=h5py.__version__,
+        hdf5_version=h5py.version.hdf5_version,
+        platform=platform.platform(),
+        created_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+    )
+
+
+def _set_attrs(obj, attrs: Mapping | None) -> None:
+    for key, value in (attrs or {}).items():
+        obj.attrs[key] = attr_value(value)
+
+
+def attr_value(value):
+    """HDF5-storable form of a Python value (dicts and lists of mixed types become JSON)."""
+    if isinstance(value, (dict, list, tuple)) and not _is_homogeneous_numeric(value):
+        return json.dumps(value, sort_keys=True, default=_json_default)
+    if isinstance(value, bool):
+        return np.int8(value)
+    if value is None:
+        return "none"
+    return value
+
+
+def set_root_attrs(f: h5py.File, attrs: Mapping) -> None:
+    _set_attrs(f, attrs)
+
+
+def _is_homogeneous_numeric(value) -> bool:
+    if isinstance(value, dict):
+        return False
+    return len(value) > 0 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                  for v in value)
+
+
+def _json_default(obj):
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (set, frozenset)):
+        return sorted(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def read_json_attr(obj, key: str):
+    raw = obj.attrs[key]
+    if isinstance(raw, bytes):
+        raw = raw.decode()
+    return json.loads(raw)
+
+
+def iter_names(values: Iterable) -> list[str]:
+    return [v.decode() if isinstance(v, bytes) else str(v) for v in values]

@@ -1,0 +1,310 @@
+"""One finger: which configuration it reaches and what it costs (MODEL 4, 5, 6).
+
+Split in two so the sweep can reuse work: `closing_contact` depends on geometry only
+(l1, l2, r, joint limits); `settle` adds the stick-slip decisions and the reconfiguration path,
+which depend on the pulley radii and friction. `solve_finger` is both in sequence.
+
+Right-finger frame throughout (`d = p - J`); the left finger calls the same code with `d` mirrored.
+Every function returns plain numbers and never raises.
+"""
+import math
+
+from numba import njit
+
+from ..model import (DISTAL_ONLY, FREE, PROXIMAL_ONLY, RANGE_TOL, SLIPPED, TWO_PHALANX,
+                     VERTEX)
+from .geometry import (clamp, distal_tangency, in_range, proximal_tangency,
+                       rigid_distal_tangency, tangent_length, vertex_entry, wrap_angle)
+
+# Internal modes of a first contact that still has to be settled (never stored).
+OVERLAP = -1                   # the part overlaps the joint: the point is infeasible
+DISTAL_ON_LOWER_STOP = 6       # distal-only first contact of the rigid sweep (t2 = theta2_min)
+DISTAL_ON_PROXIMAL_STOP = 7    # distal-only contact with the proximal folded at t1 = pi
+
+# Events along the reconfiguration path (bit mask), in tie-break priority order (model-notes D4).
+STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
+
+
+# ---------------------------------------------------------------------------------------------
+# Statics (MODEL 5.2, 5.3): everything is decided with g = k1 k2 F1 / F, finite at k -> 0
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def proximal_torque_balance(k2, t2, l1, r1, r2, mu):
+    """g(mu) = r1 k2 - r2 (l1 cos t2 + k2) + mu r2 l1 sin t2 (MODEL 5.3), for a given multiplier."""
+    return r1 * k2 - r2 * (l1 * math.cos(t2) + k2) + mu * r2 * l1 * math.sin(t2)
+
+
+@njit(cache=True)
+def friction_for_sticking(t2, mu_s):
+    """The multiplier in [-mu_s, mu_s] that maximises g: friction opposing the slip."""
+    s = math.sin(t2)
+    if s > 0.0:
+        return mu_s
+    if s < 0.0:
+        return -mu_s
+    return 0.0
+
+
+@njit(cache=True)
+def max_torque_balance(k2, t2, l1, r1, r2, mu_s):
+    """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick."""
+    return proximal_torque_balance(k2, t2, l1, r1, r2, friction_for_sticking(t2, mu_s))
+
+
+@njit(cache=True)
+def distal_lever(k2, t2, l1, mu):
+    """Moment arm (per unit normal force) of a distal contact about the proximal joint."""
+    return l1 * math.cos(t2) + k2 - mu * l1 * math.sin(t2)
+
+
+# ---------------------------------------------------------------------------------------------
+# Closing sequence (MODEL 4): geometry only
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def closing_contact(dx, dy, l1, l2, r, theta2_min, theta2_max):
+    """First contact of the closing sequence: (mode, t1, t2, k1, k2, tip_overlap).
+
+    mode is FREE, PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX,
+    DISTAL_ON_LOWER_STOP, DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint).
+    """
+    if tangent_length(dx * dx + dy * dy, r) < 0.0:
+        return OVERLAP, 0.0, 0.0, 0.0, 0.0, False
+
+    # Rigid sweep, proximal tangency first (provably the earliest event when valid).
+    t1, k1 = proximal_tangency(dx, dy, r)
+    if k1 <= l1 + RANGE_TOL and in_range(t1, 0.0, math.pi):
+        t1 = clamp(t1, 0.0, math.pi)
+        k1 = clamp(k1, 0.0, l1)
+        return distal_closes_after_proximal(dx, dy, t1, k1, l1, l2, r, theta2_min, theta2_max)
+
+    # Otherwise the earliest of: distal tangency (3.3), a strike of B, a strike of T.
+    best_t1 = math.inf
+    mode = FREE
+    k1_out = 0.0
+    k2_out = 0.0
+    t1c, k2c = rigid_distal_tangency(dx, dy, l1, r, theta2_min)
+    if k2c >= -RANGE_TOL and k2c <= l2 + RANGE_TOL and in_range(t1c, 0.0, math.pi):
+        best_t1 = t1c
+        mode = DISTAL_ON_LOWER_STOP
+        k2_out = clamp(k2c, 0.0, l2)
+    # A vertex wins only if strictly earlier: at a tie the tangency covers the link's end.
+    t_b = vertex_entry(dx, dy, l1, 0.0, r)
+    if in_range(t_b, 0.0, math.pi) and t_b < best_t1 - RANGE_TOL:
+        best_t1 = t_b
+        mode = VERTEX
+        k1_out = l1
+        k2_out = 0.0
+    rho_t = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(theta2_min))
+    delta_t = math.atan2(l2 * math.sin(theta2_min), l1 + l2 * math.cos(theta2_min))
+    t_t = vertex_entry(dx, dy, rho_t, delta_t, r)
+    if in_range(t_t, 0.0, math.pi) and t_t < best_t1 - RANGE_TOL:
+        best_t1 = t_t
+        mode = VERTEX
+        k1_out = 0.0
+        k2_out = l2
+    if mode != FREE:
+        return mode, clamp(best_t1, 0.0, math.pi), theta2_min, k1_out, k2_out, False
+
+    # No event before the proximal stop: the distal closes about B with t1 = pi.
+    t1 = math.pi
+    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
+    if k2 <= l2 + RANGE_TOL and in_range(t2, theta2_min, theta2_max):
+        return (DISTAL_ON_PROXIMAL_STOP, t1, clamp(t2, theta2_min, theta2_max), 0.0,
+                clamp(k2, 0.0, l2), False)
+    t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
+    if in_range(t2_tip, theta2_min, theta2_max):
+        return VERTEX, t1, clamp(t2_tip, theta2_min, theta2_max), 0.0, l2, False
+    return FREE, t1, theta2_max, 0.0, 0.0, False
+
+
+@njit(cache=True)
+def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
+    """Relative angle t2 at which the tip, turning about B with t1 fixed, enters the disc (or inf)."""
+    ex = dx - l1 * math.cos(t1)
+    ey = dy - l1 * math.sin(t1)
+    phi = vertex_entry(ex, ey, l2, 0.0, r)
+    if phi == math.inf:
+        return math.inf
+    return wrap_angle(phi - t1)
+
+
+@njit(cache=True)
+def distal_closes_after_proximal(dx, dy, t1, k1, l1, l2, r, theta2_min, theta2_max):
+    """MODEL 4.3: after a proximal contact the distal closes about B with t1 fixed."""
+    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
+    if k2 <= l2 + RANGE_TOL and in_range(t2, theta2_min, theta2_max):
+        return (TWO_PHALANX, t1, clamp(t2, theta2_min, theta2_max), k1, clamp(k2, 0.0, l2),
+                False)
+    # The distal reaches its limit; the paper keeps this answer even if the tip passes through
+    # the part on the way, which is flagged (MODEL 4.3, model-notes D3).
+    t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
+    return PROXIMAL_ONLY, t1, theta2_max, k1, 0.0, in_range(t2_tip, theta2_min, theta2_max)
+
+
+# ---------------------------------------------------------------------------------------------
+# Stick-slip and reconfiguration (MODEL 5)
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max):
+    """Bit mask of the reconfiguration events that hold at a state of the path (model-notes D4)."""
+    events = 0
+    if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:
+        events |= STICK
+    if t2 >= theta2_max - RANGE_TOL:
+        events |= DISTAL_STOP
+    if t1 <= 0.0:
+        events |= PROXIMAL_STOP
+    if k2 > l2 + RANGE_TOL:
+        events |= SLIP
+    return events
+
+
+@njit(cache=True)
+def path_event_mask_at(t1, dx, dy, l1, l2, r1, r2, r, mu, theta2_max):
+    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
+    return path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max)
+
+
+@njit(cache=True)
+def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, root_tol):
+    """Bisection: the event holds at lo, not at hi; return the lo end within root_tol."""
+    if event == PROXIMAL_STOP:
+        return 0.0
+    for _ in range(200):  # bounded: 200 halvings exhaust float64 resolution on [0, pi]
+        if hi - lo <= root_tol:
+            break
+        mid = 0.5 * (lo + hi)
+        if path_event_mask_at(mid, dx, dy, l1, l2, r1, r2, r, mu, theta2_max) & event:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@njit(cache=True)
+def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_tol):
+    """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event.
+
+    Returns (mode, t1, t2, k2) with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED.
+    """
+    hi = t1_start
+    lo = t1_start
+    events = 0
+    n_max = int(math.ceil(t1_start / step)) + 1
+    for n in range(1, n_max + 1):
+        lo = max(t1_start - n * step, 0.0)
+        events = path_event_mask_at(lo, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+        if events != 0 or lo == 0.0:
+            break
+        hi = lo
+    best_t1 = -1.0
+    best_event = PROXIMAL_STOP
+    for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
+        if events & event:
+            t_cross = event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max,
+                                     root_tol)
+            if t_cross > best_t1:
+                best_t1 = t_cross
+                best_event = event
+    if best_t1 < 0.0:  # unreachable (t1 = 0 is always an event); keep a defined answer
+        best_t1 = 0.0
+    t2, k2 = distal_tangency(dx, dy, best_t1, l1, r)
+    if best_event == SLIP:
+        return SLIPPED, best_t1, t2, k2
+    return DISTAL_ONLY, best_t1, t2, k2
+
+
+@njit(cache=True)
+def settle(mode, t1, t2, k1, k2, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, step, root_tol):
+    """Apply the stick-slip cases to a first contact: the finger's final (mode, t1, t2, k1, k2)."""
+    if mode == TWO_PHALANX:
+        if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:  # cases 1 and 3
+            return TWO_PHALANX, t1, t2, k1, k2
+        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
+                                    root_tol)
+        return m, t1, t2, 0.0, k2
+    if mode == DISTAL_ON_LOWER_STOP:
+        mu_stick = friction_for_sticking(t2, mu)
+        if (proximal_torque_balance(k2, t2, l1, r1, r2, mu_stick) >= 0.0
+                and distal_lever(k2, t2, l1, mu_stick) > 0.0):
+            return DISTAL_ONLY, t1, t2, 0.0, k2
+        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
+                                    root_tol)
+        return m, t1, t2, 0.0, k2
+    if mode == DISTAL_ON_PROXIMAL_STOP:
+        if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:
+            return DISTAL_ONLY, t1, t2, 0.0, k2
+        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
+                                    root_tol)
+        return m, t1, t2, 0.0, k2
+    return mode, t1, t2, k1, k2
+
+
+@njit(cache=True)
+def solve_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol):
+    """The finger's equilibrium configuration: (mode, t1, t2, k1, k2, tip_overlap).
+
+    mode OVERLAP (-1) means the part overlaps the joint (infeasible point).
+    """
+    mode, t1, t2, k1, k2, overlap = closing_contact(dx, dy, l1, l2, r, theta2_min, theta2_max)
+    mode, t1, t2, k1, k2 = settle(mode, t1, t2, k1, k2, dx, dy, l1, l2, r1, r2, r, mu,
+                                  theta2_max, step, root_tol)
+    return mode, t1, t2, k1, k2, overlap
+
+
+# ---------------------------------------------------------------------------------------------
+# Energy (MODEL 6) and contact forces (MODEL 5.6)
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def finger_energy(t1, t2, r1, r2, tension, theta2_min):
+    """V = -F [r1 (t1 - theta1_o) + r2 (t2 - theta2_o)] with theta1_o = 0, theta2_o = theta2_min."""
+    return -tension * (r1 * t1 + r2 * (t2 - theta2_min))
+
+
+@njit(cache=True)
+def contact_forces(mode, t1, t2, k1, k2, l1, r1, r2, mu, tension, theta2_min, theta2_max):
+    """Normal forces and distal friction multiplier (F1, F2, mu2) on the part (MODEL 5.6).
+
+    mu2 is the least |multiplier| for which the finger's statics hold with every joint-stop torque
+    of an admissible sign; the proximal contact's friction exerts no torque and is reported as 0.
+    A contact exactly at a joint (k -> 0) carries no determinate force and is reported as 0.
+    """
+    if mode == PROXIMAL_ONLY:
+        if k1 <= RANGE_TOL:
+            return 0.0, 0.0, 0.0
+        return tension * r1 / k1, 0.0, 0.0
+    if mode == TWO_PHALANX:
+        if k2 <= RANGE_TOL:
+            return 0.0, 0.0, 0.0
+        g0 = proximal_torque_balance(k2, t2, l1, r1, r2, 0.0)
+        mu2 = 0.0
+        if g0 < 0.0:
+            mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu, mu)
+        f2 = tension * r2 / k2
+        f1 = 0.0
+        if k1 > RANGE_TOL:
+            f1 = max(tension * proximal_torque_balance(k2, t2, l1, r1, r2, mu2) / (k1 * k2), 0.0)
+        return f1, f2, mu2
+    if mode == DISTAL_ONLY:
+        if k2 <= RANGE_TOL:
+            return 0.0, 0.0, 0.0
+        g0 = proximal_torque_balance(k2, t2, l1, r1, r2, 0.0)
+        s = math.sin(t2)
+        if t2 <= theta2_min + RANGE_TOL:
+            # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; proximal balance gives F2.
+            mu2 = 0.0
+            if g0 < 0.0 and s != 0.0:
+                mu2 = clamp(-g0 / (r2 * l1 * s), -mu, mu)
+            return 0.0, tension * r1 / distal_lever(k2, t2, l1, mu2), mu2
+        if t2 >= theta2_max - RANGE_TOL:
+            # On the distal upper stop: stop torque <= 0 needs g(mu) <= 0, true for mu = 0 here.
+            return 0.0, tension * r1 / distal_lever(k2, t2, l1, 0.0), 0.0
+        if t1 <= RANGE_TOL or t1 >= math.pi - RANGE_TOL:
+            # On a proximal stop: the stop absorbs the proximal imbalance, no friction needed.
+            return 0.0, tension * r2 / k2, 0.0
+        # Stuck between stops: g(mu) = 0 fixes the multiplier.
+        mu2 = 0.0
+        if s != 0.0:
+            mu2 = clamp(-g0 / (r2 * l1 * s), -mu, mu)
+        return 0.0, tension * r2 / k2, mu2
+    return 0.0, 0.0, 0.0

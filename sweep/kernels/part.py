@@ -1,0 +1,158 @@
+"""The part between two fingers: equilibrium, containment, opening (MODEL 7, 8).
+
+World frame (origin at the palm centre). Finger configurations come in each finger's own frame;
+`finger_polyline` places them (the left finger mirrored).
+"""
+import math
+
+from numba import njit
+
+from ..model import (DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, TWO_PHALANX)
+
+
+@njit(cache=True)
+def finger_polyline(side, t1, t2, l1, l2, w):
+    """World coordinates (Jx, Jy, Bx, By, Tx, Ty) of a finger; side 0 = left, 1 = right."""
+    sign = 1.0 if side == 1 else -1.0
+    jx = sign * 0.5 * w
+    bx = jx + sign * l1 * math.cos(t1)
+    by = l1 * math.sin(t1)
+    tx = bx + sign * l2 * math.cos(t1 + t2)
+    ty = by + l2 * math.sin(t1 + t2)
+    return jx, 0.0, bx, by, tx, ty
+
+
+@njit(cache=True)
+def add_contact(angles, n, normal_angle, cone_half_angle):
+    """Append the two friction-cone edges of a contact whose normal has this world angle."""
+    angles[n] = normal_angle - cone_half_angle
+    angles[n + 1] = normal_angle + cone_half_angle
+    return n + 2
+
+
+@njit(cache=True)
+def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
+    """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the left)."""
+    if mode == PROXIMAL_ONLY or mode == TWO_PHALANX:
+        a = t1 + 0.5 * math.pi  # angle of a_y in the finger frame
+        n = add_contact(angles, n, a if side == 1 else math.pi - a, cone_half_angle)
+    if mode == TWO_PHALANX or mode == DISTAL_ONLY:
+        b = t1 + t2 + 0.5 * math.pi  # angle of b_y
+        n = add_contact(angles, n, b if side == 1 else math.pi - b, cone_half_angle)
+    return n
+
+
+@njit(cache=True)
+def origin_in_cone_hull(angles, n):
+    """MODEL 7: the origin lies in the convex hull of unit edge directions iff no angular gap > pi.
+
+    Sorts angles[:n] in place (insertion sort: n <= 10).
+    """
+    if n == 0:
+        return False
+    for i in range(n):
+        angles[i] = angles[i] % (2.0 * math.pi)
+    for i in range(1, n):
+        a = angles[i]
+        j = i - 1
+        while j >= 0 and angles[j] > a:
+            angles[j + 1] = angles[j]
+            j -= 1
+        angles[j + 1] = a
+    largest_gap = angles[0] + 2.0 * math.pi - angles[n - 1]
+    for i in range(1, n):
+        largest_gap = max(largest_gap, angles[i] - angles[i - 1])
+    return largest_gap <= math.pi + GAP_TOL
+
+
+@njit(cache=True)
+def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r):
+    """Cone-hull equilibrium of the part with both fingers' tangent contacts and the palm.
+
+    `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
+    """
+    cone = math.atan(mu)
+    n = finger_contact_normals(angles, 0, 0, mode_l, t1_l, t2_l, cone)
+    n = finger_contact_normals(angles, n, 1, mode_r, t1_r, t2_r, cone)
+    if abs(y - r) <= PALM_TOL and abs(x) <= 0.5 * w + PALM_TOL:
+        n = add_contact(angles, n, 0.5 * math.pi, cone)
+    if n < 4:
+        return False
+    return origin_in_cone_hull(angles, n)
+
+
+@njit(cache=True)
+def _edge_toggles(px, py, ax, ay, bx, by):
+    """PNPOLY's crossing rule for one polygon edge (model-notes D5)."""
+    return (ay > py) != (by > py) and px < (bx - ax) * (py - ay) / (by - ay) + ax
+
+
+@njit(cache=True)
+def part_contained(px, py, left, right):
+    """Even-odd test of the part centre in the polygon J_L, B_L, T_L, T_R, B_R, J_R."""
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    inside = False
+    if _edge_toggles(px, py, jlx, jly, blx, bly):
+        inside = not inside
+    if _edge_toggles(px, py, blx, bly, tlx, tly):
+        inside = not inside
+    if _edge_toggles(px, py, tlx, tly, trx, try_):
+        inside = not inside
+    if _edge_toggles(px, py, trx, try_, brx, bry):
+        inside = not inside
+    if _edge_toggles(px, py, brx, bry, jrx, jry):
+        inside = not inside
+    if _edge_toggles(px, py, jrx, jry, jlx, jly):
+        inside = not inside
+    return inside
+
+
+@njit(cache=True)
+def point_segment_distance(px, py, ax, ay, bx, by):
+    vx = bx - ax
+    vy = by - ay
+    length2 = vx * vx + vy * vy
+    s = 0.0
+    if length2 > 0.0:
+        s = min(max(((px - ax) * vx + (py - ay) * vy) / length2, 0.0), 1.0)
+    dx = px - (ax + s * vx)
+    dy = py - (ay + s * vy)
+    return math.sqrt(dx * dx + dy * dy)
+
+
+@njit(cache=True)
+def _orientation(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@njit(cache=True)
+def segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    """Proper crossing only (both orientation products strictly negative; model-notes D5)."""
+    return (_orientation(ax, ay, bx, by, cx, cy) * _orientation(ax, ay, bx, by, dx, dy) < 0.0
+            and _orientation(cx, cy, dx, dy, ax, ay) * _orientation(cx, cy, dx, dy, bx, by) < 0.0)
+
+
+@njit(cache=True)
+def fingers_cross(left, right):
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    return (segments_cross(jlx, jly, blx, bly, jrx, jry, brx, bry)
+            or segments_cross(jlx, jly, blx, bly, brx, bry, trx, try_)
+            or segments_cross(blx, bly, tlx, tly, jrx, jry, brx, bry)
+            or segments_cross(blx, bly, tlx, tly, brx, bry, trx, try_))
+
+
+@njit(cache=True)
+def mouth_opening(left, right):
+    """L_open (MODEL 8): the largest part that could escape between the fingertips; 0 if crossed."""
+    if fingers_cross(left, right):
+        return 0.0
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    opening = math.sqrt((tlx - trx) ** 2 + (tly - try_) ** 2)
+    opening = min(opening, point_segment_distance(tlx, tly, jrx, jry, brx, bry))
+    opening = min(opening, point_segment_distance(tlx, tly, brx, bry, trx, try_))
+    opening = min(opening, point_segment_distance(trx, try_, jlx, jly, blx, bly))
+    opening = min(opening, point_segment_distance(trx, try_, blx, bly, tlx, tly))
+    return opening

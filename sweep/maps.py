@@ -1,0 +1,181 @@
+"""One energy map: design, part, command and grid in; labelled arrays out (MODEL 8).
+
+`compute_map` validates its inputs (the public edge), lays out the grid, solves both fingers at
+every grid point in parallel, then classifies points, follows trajectories and scores the map.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .kernels.field import count_summary, finger_field, map_outcomes, trajectory_ends
+from .model import (GRID_TOL, INFEASIBLE, MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects,
+                    Grid, Limits, ModelInputError, Part, validate_inputs)
+
+# Bytes held per grid point while a map is computed (finger arrays x2, outcomes, trajectories).
+BYTES_PER_POINT = 2 * (1 + 4 * 8 + 1) + 8 + 1 + 1 + 1 + 8 + 1 + 1 + 8 + 1 + 8 + 8 + 8
+MAX_POINTS_DEFAULT = 200_000_000
+
+
+@dataclass
+class MapGrid:
+    """Integer grid indices and coordinates of one map (model-notes D1)."""
+
+    h: float
+    i: np.ndarray          # column integers, x = i h
+    j: np.ndarray          # row integers, y = r + j h
+    x: np.ndarray
+    y: np.ndarray
+    windowed: bool         # True when the user narrowed the window (trajectory edges differ)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.y.size, self.x.size)
+
+
+def reach(design: Design, part: Part) -> tuple[float, float]:
+    """Default window half-width X and height Y: the whole reach (MODEL 8)."""
+    return (0.5 * design.w + design.l1 + design.l2 + part.r, part.r + design.l1 + design.l2)
+
+
+def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
+    h = grid.h
+    if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
+        raise ModelInputError(f"h must be a positive number, got {h!r}")
+    X, Y = reach(design, part)
+    if grid.xlim is None:
+        n = math.floor(X / h + GRID_TOL)
+        i0, i1 = -n, n
+    else:
+        xmin, xmax = grid.xlim
+        if not xmin <= xmax:
+            raise ModelInputError(f"xlim must have XMIN <= XMAX, got {grid.xlim!r}")
+        i0, i1 = math.ceil(xmin / h - GRID_TOL), math.floor(xmax / h + GRID_TOL)
+    if grid.ylim is None:
+        j0, j1 = 0, math.floor((Y - part.r) / h + GRID_TOL)
+    else:
+        ymin, ymax = grid.ylim
+        if not ymin <= ymax:
+            raise ModelInputError(f"ylim must have YMIN <= YMAX, got {grid.ylim!r}")
+        j0 = math.ceil((ymin - part.r) / h - GRID_TOL)
+        j1 = math.floor((ymax - part.r) / h + GRID_TOL)
+    if i1 < i0 or j1 < j0:
+        raise ModelInputError(f"the grid window holds no grid point at h = {h}")
+    i = np.arange(i0, i1 + 1, dtype=np.int64)
+    j = np.arange(j0, j1 + 1, dtype=np.int64)
+    return MapGrid(h=h, i=i, j=j, x=i * h, y=part.r + j * h,
+                   windowed=grid.xlim is not None or grid.ylim is not None)
+
+
+def palm_half_width_steps(w: float, h: float) -> int | None:
+    """The palm half-width in whole grid steps, or None if it is not a whole number of steps."""
+    s = w / (2.0 * h)
+    return int(round(s)) if abs(s - round(s)) <= GRID_TOL else None
+
+
+def finger_offsets(i: np.ndarray, w: float, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Finger-frame x offsets of the left and right finger for world columns i (model-notes D1)."""
+    s = palm_half_width_steps(w, h)
+    if s is not None:
+        return (-i - s) * h, (i - s) * h
+    return -(i * h) - 0.5 * w, i * h - 0.5 * w
+
+
+def check_memory(n_points: int, what: str = "the grid") -> None:
+    """Refuse a grid whose working arrays would not fit in memory."""
+    need = n_points * BYTES_PER_POINT
+    try:
+        available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        available = 8 << 30
+    if n_points > MAX_POINTS_DEFAULT or need > 0.5 * available:
+        raise ModelInputError(
+            f"{what} has {n_points:,} points and needs about {need / 2**30:.1f} GiB; "
+            f"that does not fit (about {available / 2**30:.1f} GiB free): raise h or narrow it")
+
+
+@dataclass
+class EnergyMap:
+    """Labelled arrays of one map. fields[name] is on (y, x) or (finger, y, x), finger 0 = left."""
+
+    design: Design
+    part: Part
+    command: Command
+    grid: Grid
+    limits: Limits
+    accuracy: Accuracy
+    effects: Effects
+    x: np.ndarray
+    y: np.ndarray
+    fields: dict = field(default_factory=dict)
+    attrs: dict = field(default_factory=dict)
+
+
+MAP_FIELDS_2D = ("energy", "point_class", "end_state", "equilibrium", "contained", "l_open",
+                 "caging_score")
+MAP_FIELDS_FINGER = ("finger_mode", "theta1", "theta2", "k1", "k2", "tip_overlap")
+
+
+def compute_map(design: Design, part: Part, command: Command = Command(), grid: Grid = Grid(),
+                limits: Limits = Limits(), accuracy: Accuracy = Accuracy(),
+                effects: Effects = Effects()) -> EnergyMap:
+    """Compute one friction-based energy map (MODEL 2-8)."""
+    validate_inputs(design, part, command, limits, accuracy, effects)
+    g = map_grid(design, part, grid)
+    ny, nx = g.shape
+    check_memory(ny * nx)
+    mu = part.mu if effects.friction else 0.0
+    th2min, th2max = limits.theta2_min, limits.theta2_max
+    started = time.perf_counter()
+
+    mode = np.empty((2, ny, nx), dtype=np.int8)
+    t1 = np.empty((2, ny, nx))
+    t2 = np.empty((2, ny, nx))
+    k1 = np.empty((2, ny, nx))
+    k2 = np.empty((2, ny, nx))
+    overlap = np.empty((2, ny, nx), dtype=np.bool_)
+    dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
+    for side, dxs in ((0, dx_left), (1, dx_right)):
+        finger_field(dxs, g.y, design.l1, design.l2, design.r1, design.r2, part.r, mu, th2min,
+                     th2max, accuracy.reconfig_step, accuracy.root_tol, mode[side], t1[side],
+                     t2[side], k1[side], k2[side], overlap[side])
+    solved = time.perf_counter()
+
+    energy = np.empty((ny, nx))
+    point_class = np.empty((ny, nx), dtype=np.int8)
+    equilibrium = np.empty((ny, nx), dtype=np.bool_)
+    contained = np.empty((ny, nx), dtype=np.bool_)
+    l_open = np.empty((ny, nx))
+    crossed = np.empty((ny, nx), dtype=np.bool_)
+    caged = np.empty((ny, nx), dtype=np.bool_)
+    caging_score = np.empty((ny, nx))
+    map_outcomes(g.x, g.y, design.w, design.l1, design.l2, design.r1, design.r2, part.r, mu,
+                 command.f_left, command.f_right, th2min, mode, t1, t2, k1, k2, energy,
+                 point_class, equilibrium, contained, l_open, crossed, caged, caging_score)
+    end_state = np.empty((ny, nx), dtype=np.int8)
+    end_index = np.empty((ny, nx), dtype=np.int64)
+    stack = np.empty(ny * nx, dtype=np.int64)
+    Lambda = trajectory_ends(energy, point_class, equilibrium, caged, caging_score, g.h,
+                             end_state, end_index, stack)
+    finished = time.perf_counter()
+    overlap &= point_class != INFEASIBLE  # no flag where the point does not exist
+
+    fields = dict(energy=energy, point_class=point_class, end_state=end_state,
+                  equilibrium=equilibrium, contained=contained, l_open=l_open,
+                  caging_score=caging_score, finger_mode=mode, theta1=t1, theta2=t2, k1=k1,
+                  k2=k2, tip_overlap=overlap)
+    summary = np.empty(len(MAP_SUMMARY_FIELDS))
+    count_summary(point_class, end_state, equilibrium, caged, crossed, overlap, Lambda, g.h,
+                  summary)
+    attrs = {name: (float(v) if name in ("Lambda", "caging_area") else int(v))
+             for name, v in zip(MAP_SUMMARY_FIELDS, summary)}
+    attrs.update(window_edge="user window: trajectories stop at its edge" if g.windowed
+                 else "whole reach", seconds_fingers=solved - started,
+                 seconds_total=finished - started)
+    return EnergyMap(design=design, part=part, command=command, grid=grid, limits=limits,
+                     accuracy=accuracy, effects=effects, x=g.x, y=g.y, fields=fields,
+                     attrs=attrs)

@@ -1,0 +1,179 @@
+"""The model's vocabulary: parameters, categorical codes and numeric tolerances (MODEL.md 1, 5.5, 8).
+
+Everything here is plain Python. Kernels receive these values as arguments (never read module
+globals at run time except the integer codes and the true constants below, which Numba freezes at
+compile time on purpose).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+# ---------------------------------------------------------------------------------------------
+# Categorical codes (stored with CF flag_values / flag_meanings)
+# ---------------------------------------------------------------------------------------------
+# point_class (MODEL 8: "first that applies": infeasible, eject, vertex, unreached, reached)
+INFEASIBLE, UNREACHED, EJECT, VERTEX_POINT, REACHED = 0, 1, 2, 3, 4
+POINT_CLASS_MEANINGS = ("infeasible", "unreached", "eject", "vertex", "reached")
+
+# end_state of the trajectory started at a point (MODEL 8)
+END_NONE, END_CAGED, END_TIP_PREHENSION, END_EJECTION, END_STALLED = 0, 1, 2, 3, 4
+END_STATE_MEANINGS = ("none", "caged", "tip_prehension", "ejection", "stalled")
+
+# finger_mode: the contact a finger ends in (MODEL 4, 5)
+FREE, PROXIMAL_ONLY, TWO_PHALANX, DISTAL_ONLY, SLIPPED, VERTEX = 0, 1, 2, 3, 4, 5
+FINGER_MODE_MEANINGS = ("free", "proximal_only", "two_phalanx", "distal_only", "slipped", "vertex")
+
+# Per-map summary row (kernels.field.count_summary writes it in this order).
+MAP_SUMMARY_FIELDS = (
+    "Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
+    "n_reached", "n_equilibrium", "n_vertex", "n_tip_overlap", "n_caged_crossed", "n_points",
+    "n_infeasible", "n_unreached", "n_eject", "n_caged_points",
+)
+
+LEFT, RIGHT = 0, 1
+FINGER_NAMES = ("left", "right")
+
+# ---------------------------------------------------------------------------------------------
+# Tolerances that are part of the model (MODEL 5.5, 7, 8). True constants: frozen into kernels.
+# ---------------------------------------------------------------------------------------------
+TOUCH_REL = 1e-12   # |d|^2 >= r^2 (1 - TOUCH_REL) counts as touching, tangent length 0
+RANGE_TOL = 1e-12   # inclusive slack of every validity range check (k in [0, l], angle limits)
+GAP_TOL = 1e-9      # cone-hull test: equilibrium iff no angular gap exceeds pi + GAP_TOL
+PALM_TOL = 1e-9     # palm contact: |y - r| <= PALM_TOL and |x| <= w/2 + PALM_TOL
+GRID_TOL = 1e-9     # grid index rounding: N = floor(X/h + GRID_TOL)
+
+
+@dataclass(frozen=True)
+class Design:
+    """Gripper geometry: link lengths, pulley radii, palm width (MODEL 1)."""
+
+    l1: float
+    l2: float
+    r1: float
+    r2: float
+    w: float
+
+    @property
+    def R(self) -> float:
+        return self.r2 / self.r1
+
+
+@dataclass(frozen=True)
+class Part:
+    """A disc of radius r with static friction coefficient mu against the links."""
+
+    r: float
+    mu: float
+
+
+@dataclass(frozen=True)
+class Command:
+    """Tendon tensions of the left and right fingers."""
+
+    f_left: float = 1.0
+    f_right: float = 1.0
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Joint limits in degrees at the edge; radians inside (MODEL 1)."""
+
+    theta1_min_deg: float = 0.0
+    theta1_max_deg: float = 180.0
+    theta2_min_deg: float = -5.0
+    theta2_max_deg: float = 90.0
+
+    @property
+    def theta2_min(self) -> float:
+        return math.radians(self.theta2_min_deg)
+
+    @property
+    def theta2_max(self) -> float:
+        return math.radians(self.theta2_max_deg)
+
+
+@dataclass(frozen=True)
+class Accuracy:
+    """Accuracy settings (MODEL 8): reconfiguration step (rad) and root tolerance (rad)."""
+
+    reconfig_step: float = 0.01
+    root_tol: float = 1e-12
+    trajectory: str = "discrete"
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Grid spacing and optional window; None bounds mean the whole reach (MODEL 8)."""
+
+    h: float = 0.05
+    xlim: tuple[float, float] | None = None
+    ylim: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Effects:
+    """Effects a scene may switch on (MODEL 9). Only the base model is implemented so far."""
+
+    friction: bool = True
+    tip_contact: bool = False
+    joint_springs: bool = False
+    finger_collision: bool = False
+
+    def names_on(self) -> list[str]:
+        return [k for k, v in asdict(self).items() if v]
+
+
+IMPLEMENTED_EFFECTS = frozenset({"friction"})
+
+
+class ModelInputError(ValueError):
+    """Bad user input, caught once at the edge (CLI exit code 2)."""
+
+
+def validate_inputs(design: Design, part: Part, command: Command, limits: Limits,
+                    accuracy: Accuracy, effects: Effects | None = None) -> None:
+    """Raise ModelInputError with a one-line message naming the bad value."""
+
+    def positive(name, value):
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+            raise ModelInputError(f"{name} must be a positive number, got {value!r}")
+
+    for name in ("l1", "l2", "r1", "r2"):
+        positive(name, getattr(design, name))
+    if not (math.isfinite(design.w) and design.w >= 0):
+        raise ModelInputError(f"w must be >= 0, got {design.w!r}")
+    positive("r", part.r)
+    if not (math.isfinite(part.mu) and part.mu >= 0):
+        raise ModelInputError(f"mu must be >= 0, got {part.mu!r}")
+    for name in ("f_left", "f_right"):
+        v = getattr(command, name)
+        if not (math.isfinite(v) and v >= 0):
+            raise ModelInputError(f"{name} must be >= 0, got {v!r}")
+    if design.r1 == design.r2:
+        # MODEL 5.4: the kernels stay finite (they never divide by 1 - R), so R = 1 is handled
+        # explicitly: every reconfiguration slides to the tip. Nothing to refuse.
+        pass
+    if limits.theta1_min_deg != 0.0 or limits.theta1_max_deg != 180.0:
+        raise ModelInputError("theta1 limits other than [0, 180] deg are not supported")
+    if not (-90.0 < limits.theta2_min_deg <= 0.0):
+        raise ModelInputError(
+            f"theta2_min must be in (-90, 0] deg (MODEL 1), got {limits.theta2_min_deg!r}")
+    if not (limits.theta2_min_deg < limits.theta2_max_deg <= 180.0):
+        raise ModelInputError(
+            f"theta2_max must be in (theta2_min, 180] deg, got {limits.theta2_max_deg!r}")
+    positive("reconfig_step", accuracy.reconfig_step)
+    positive("root_tol", accuracy.root_tol)
+    if accuracy.reconfig_step > 0.5:
+        raise ModelInputError(f"reconfig_step must be <= 0.5 rad, got {accuracy.reconfig_step!r}")
+    if accuracy.trajectory != "discrete":
+        raise ModelInputError(f"trajectory method {accuracy.trajectory!r} is not implemented "
+                              "(only 'discrete')")
+    if effects is not None:
+        unsupported = set(effects.names_on()) - IMPLEMENTED_EFFECTS
+        if unsupported:
+            raise ModelInputError(f"effects not implemented yet: {', '.join(sorted(unsupported))}")
+
+
+def as_dict(obj) -> dict:
+    return asdict(obj)
