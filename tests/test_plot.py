@@ -1,0 +1,83 @@
+"""The map picture: a valid PNG written atomically, nothing left behind on failure."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from sweep.maps import compute_map
+from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, REACHED,
+                         Command, Design, Grid, Part)
+from sweep.plot import plot_map, successors, trajectory_end_points
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def small_map():
+    return compute_map(Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4), Command(1.0, 1.0),
+                       Grid(h=0.2))
+
+
+def test_plot_writes_a_png_atomically(small_map, tmp_path):
+    out = tmp_path / "sub" / "map.png"
+    written = plot_map(small_map, out)
+    assert written == out
+    data = out.read_bytes()
+    assert len(data) > 1000
+    assert data[:8] == PNG_MAGIC
+    assert sorted(p.name for p in out.parent.iterdir()) == ["map.png"]  # no temp file left
+
+
+def test_plot_file_has_the_usual_permissions(small_map, tmp_path):
+    out = plot_map(small_map, tmp_path / "map.png")
+    other = tmp_path / "other"
+    other.write_bytes(b"")
+    assert out.stat().st_mode & 0o777 == other.stat().st_mode & 0o777
+
+
+def test_plot_overwrites_an_existing_file(small_map, tmp_path):
+    out = tmp_path / "map.png"
+    out.write_bytes(b"old")
+    plot_map(small_map, str(out))
+    assert out.read_bytes()[:8] == PNG_MAGIC
+    assert [p.name for p in tmp_path.iterdir()] == ["map.png"]
+
+
+def test_plot_fails_cleanly_when_the_directory_cannot_be_made(small_map, tmp_path):
+    blocker = tmp_path / "not_a_dir"
+    blocker.write_text("a file where a directory is needed")
+    with pytest.raises(OSError):
+        plot_map(small_map, blocker / "sub" / "map.png")
+    assert [p.name for p in tmp_path.iterdir()] == ["not_a_dir"]
+    assert blocker.read_text() == "a file where a directory is needed"
+
+
+def test_plot_leaves_no_temp_file_when_saving_fails(small_map, tmp_path, monkeypatch):
+    from matplotlib.figure import Figure
+
+    def broken_savefig(self, *args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(Figure, "savefig", broken_savefig)
+    out = tmp_path / "map.png"
+    out.write_bytes(b"previous picture")
+    with pytest.raises(RuntimeError):
+        plot_map(small_map, out)
+    assert [p.name for p in tmp_path.iterdir()] == ["map.png"]
+    assert out.read_bytes() == b"previous picture"  # the old file is untouched
+
+
+def test_plotted_trajectory_ends_match_the_kernel(small_map):
+    """The picture's trajectories (downhill_neighbour) end where the map says they end."""
+    f = small_map.fields
+    h = float(small_map.x[1] - small_map.x[0])
+    reached = f["point_class"] == REACHED
+    stable = reached & f["equilibrium"]
+    ends = trajectory_end_points(successors(f["energy"], f["point_class"], stable, h))
+    e = ends[reached.ravel()]
+    kind = np.where(~reached.ravel()[e], END_EJECTION,
+                    np.where(stable.ravel()[e],
+                             np.where(f["end_state"].ravel()[e] == END_CAGED, END_CAGED,
+                                      END_TIP_PREHENSION),
+                             END_STALLED))
+    assert np.array_equal(kind, f["end_state"].ravel()[reached.ravel()])
