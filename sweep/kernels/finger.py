@@ -166,18 +166,54 @@ def path_event_mask_at(t1, dx, dy, l1, l2, r1, r2, r, mu, theta2_max):
 
 
 @njit(cache=True)
+def event_margin(event, t1, dx, dy, l1, l2, r1, r2, r, mu, theta2_max):
+    """(holds, margin) of one path event at t1; the margin is continuous in t1 and >= 0 where
+    the event holds, so a bracketing root finder can interpolate it."""
+    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
+    holds = (path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max) & event) != 0
+    if event == STICK:
+        margin = max_torque_balance(k2, t2, l1, r1, r2, mu)
+    elif event == DISTAL_STOP:
+        margin = t2 - (theta2_max - RANGE_TOL)
+    else:  # SLIP
+        margin = k2 - (l2 + RANGE_TOL)
+    return holds, margin
+
+
+@njit(cache=True)
 def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, root_tol):
-    """Bisection: the event holds at lo, not at hi; return the lo end within root_tol."""
+    """Where an event starts along the path: it holds at lo, not at hi (lo < hi).
+
+    Safeguarded Illinois regula falsi on the event margin: every probe lies at least root_tol/2
+    inside the bracket and every fourth is a bisection, so the bracket shrinks to root_tol in a
+    handful of evaluations. Returns the lo end, where the event holds (model-notes D4).
+    """
     if event == PROXIMAL_STOP:
         return 0.0
-    for _ in range(200):  # bounded: 200 halvings exhaust float64 resolution on [0, pi]
-        if hi - lo <= root_tol:
+    _, f_lo = event_margin(event, lo, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+    _, f_hi = event_margin(event, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+    kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
+    for it in range(400):  # bounded: at worst every fourth probe halves the bracket
+        width = hi - lo
+        if width <= root_tol:
             break
-        mid = 0.5 * (lo + hi)
-        if path_event_mask_at(mid, dx, dy, l1, l2, r1, r2, r, mu, theta2_max) & event:
-            lo = mid
+        x = 0.5 * (lo + hi)
+        if it % 4 != 3 and f_lo != f_hi:
+            x = hi - f_hi * width / (f_hi - f_lo)
+            x = min(max(x, lo + 0.5 * root_tol), hi - 0.5 * root_tol)
+        holds, f_x = event_margin(event, x, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+        if holds:
+            lo = x
+            f_lo = f_x
+            if kept == 1:
+                f_hi *= 0.5
+            kept = 1
         else:
-            hi = mid
+            hi = x
+            f_hi = f_x
+            if kept == -1:
+                f_lo *= 0.5
+            kept = -1
     return lo
 
 
