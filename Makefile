@@ -25,5 +25,10 @@ test: $(STAMP)
 bench: $(STAMP)
 	$(PY) scripts/bench.py
 
+# The paper's whole design-space search: 86,400 maps (a few minutes on 2 cores); resumes if killed.
+paper: $(STAMP)
+	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
+	$(VENV)/bin/sweep show results/paper.h5
+
 clean:
 	rm -rf $(VENV) results .pytest_cache

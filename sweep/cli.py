@@ -5,7 +5,6 @@ one-line message and exit code 2.
 """
 from __future__ import annotations
 
-import contextlib
 import os
 import sys
 from pathlib import Path
@@ -13,32 +12,10 @@ from pathlib import Path
 import click
 
 from . import __version__
+from .cli_sweep import SweepInputError as InputError
+from .cli_sweep import register as register_sweep_commands
 from .model import (Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part)
-
-
-class InputError(click.ClickException):
-    """A one-line error for bad user input (exit code 2, like click's usage errors)."""
-
-    exit_code = 2
-
-
-@contextlib.contextmanager
-def numba_threads(threads: int | None):
-    """Run with `threads` Numba threads (default: SLURM_CPUS_PER_TASK, else all cores)."""
-    import numba
-
-    if threads is None and os.environ.get("SLURM_CPUS_PER_TASK", "").isdigit():
-        threads = int(os.environ["SLURM_CPUS_PER_TASK"])
-    previous = numba.get_num_threads()
-    if threads is not None:
-        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-            raise InputError(f"--threads must be between 1 and "
-                             f"{numba.config.NUMBA_NUM_THREADS}, got {threads}")
-        numba.set_num_threads(threads)
-    try:
-        yield
-    finally:
-        numba.set_num_threads(previous)
+from .runner import RunError, numba_threads, resolve_threads
 
 
 @click.group(context_settings=dict(help_option_names=["-h", "--help"], max_content_width=100))
@@ -115,7 +92,8 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         validate_inputs(design, part, command, limits, accuracy, Effects())
         g = map_grid(design, part, grid)
         check_memory(g.x.size * g.y.size)
-    except ModelInputError as err:
+        threads = resolve_threads(threads)
+    except (ModelInputError, RunError) as err:
         raise InputError(str(err)) from None
     _check_writable_target(out, "--out")
     if plot_path is not None:
@@ -135,15 +113,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         click.echo(f"wrote {plot_path}")
 
 
-def _register_sweep_commands() -> None:
-    try:
-        from . import cli_sweep
-    except ImportError:  # pragma: no cover - only while the sweep commands are being built
-        return
-    cli_sweep.register(main)
-
-
-_register_sweep_commands()
+register_sweep_commands(main)
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -1,0 +1,465 @@
+"""Sweep commands of the CLI: run, slurm, status, merge, top, show.
+
+`register(group)` adds them to a click group (`sweep.cli.main` does so). Each command is a thin
+layer over `sweep.scene`, `sweep.runner`, `sweep.store` and `sweep.slurm`. A config is loaded and
+validated by the CONFIG argument's type, before anything is written; any bad input ends with a
+one-line message and exit code 2.
+"""
+from __future__ import annotations
+
+import contextlib
+import shutil
+import signal
+import sys
+from pathlib import Path
+
+import click
+import numpy as np
+
+from .model import ModelInputError
+
+EXIT_INTERRUPTED = 130
+
+
+class SweepInputError(click.ClickException):
+    """Bad input or an unusable file/directory: one line, exit code 2."""
+
+    exit_code = 2
+
+
+class SceneParam(click.ParamType):
+    """A YAML sweep config, loaded, validated and expanded into a `sweep.scene.Scene`."""
+
+    name = "config"
+
+    def convert(self, value, param, ctx):
+        from .scene import Scene, load_scene
+
+        if isinstance(value, Scene):
+            return value
+        try:
+            scene = load_scene(value)
+        except ModelInputError as exc:
+            self.fail(str(exc), param, ctx)
+        return scene
+
+
+CONFIG = SceneParam()
+
+
+@contextlib.contextmanager
+def _errors_exit_2():
+    from .store import StoreError
+
+    try:
+        yield
+    except (StoreError, ModelInputError) as exc:
+        raise SweepInputError(str(exc)) from None
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (a batch system's time limit or `kill`) handled like Ctrl-C."""
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt():
+    def handler(signum, frame):
+        raise _Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:          # not the main thread
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+# ---------------------------------------------------------------------------------------------
+def cmd_run(scene, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts):
+    """Compute a sweep: the whole of it into one store, or one chunk of it into a run directory.
+
+    \b
+    One machine:   sweep run configs/paper.yaml --out paper.h5
+    One chunk:     sweep run configs/paper.yaml --out runs/paper --chunk 3 --chunks 64
+
+    Every core is used unless --threads (or SLURM_CPUS_PER_TASK) says otherwise. Finished
+    sub-chunks are written as they complete into a work directory (`RESULTS.parts/`, or
+    `DIR/parts/` for a chunk); Ctrl-C, a kill or a time limit loses at most the sub-chunk in
+    flight, and rerunning the same command resumes. The results are bit-identical to an
+    uninterrupted run. The final file appears (atomically) only when complete.
+
+    With --chunks N and no --chunk, the chunk index comes from the array job:
+    SLURM_ARRAY_TASK_ID or PBS_ARRAY_INDEX (0..N-1), SGE_TASK_ID or LSB_JOBINDEX (1..N).
+    """
+    from . import runner
+
+    if chunk is not None and chunks is None:
+        raise click.UsageError("--chunk needs --chunks (the total number of chunks)")
+    with _errors_exit_2():
+        threads = runner.resolve_threads(threads)
+        if chunks is not None:
+            if chunks < 1:
+                raise SweepInputError(f"--chunks must be >= 1, got {chunks}")
+            source = "--chunk"
+            if chunk is None:
+                found = runner.chunk_index_from_env()
+                if found is None:
+                    raise click.UsageError(
+                        "--chunks without --chunk: give --chunk I, or run as an array job "
+                        "(SLURM_ARRAY_TASK_ID, PBS_ARRAY_INDEX, SGE_TASK_ID or LSB_JOBINDEX)")
+                chunk, source = found
+            if not 0 <= chunk < chunks:
+                raise SweepInputError(f"{source}: chunk index {chunk} outside 0..{chunks - 1}")
+            if out.exists() and not out.is_dir():
+                raise SweepInputError(f"--out: {out} is a file; with --chunks it names a run "
+                                      "directory")
+        elif out.is_dir():
+            raise SweepInputError(f"--out: {out} is a directory; without --chunks it names the "
+                                  "results file")
+        with _sigterm_as_interrupt():
+            try:
+                if chunks is None:
+                    res = runner.run_single(scene, out, threads=threads, progress=progress,
+                                            restart=restart, overwrite=overwrite,
+                                            keep_parts=keep_parts)
+                else:
+                    res = runner.run_chunk(scene, out, chunk, chunks, threads=threads,
+                                           progress=progress, restart=restart)
+            except KeyboardInterrupt as exc:
+                what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
+                where = (runner.parts_dir_for(out) if chunks is None
+                         else out / "parts")
+                click.echo(f"sweep: {what}; finished sub-chunks are kept in {where}; rerun the "
+                           "same command to resume", err=True)
+                sys.exit(EXIT_INTERRUPTED)
+    if res.already_done:
+        click.echo(f"{res.path} is already complete ({res.n_maps:,} maps, config "
+                   f"{scene.config_hash[:12]}); nothing to do")
+        return
+    rate = res.n_maps / res.compute_seconds if res.compute_seconds > 0 else float("nan")
+    click.echo(f"wrote {res.path}: {res.n_maps:,} maps ({res.computed_maps:,} computed now) in "
+               f"{res.wall_seconds:.1f} s; {rate:,.0f} maps/s of compute")
+
+
+def cmd_slurm(scene, chunks, out, parallel, cpus_per_task, time_limit, mem,
+              partition, account, job_name, sweep_cmd, sbatch_opts):
+    """Print an sbatch array script that runs the sweep as N chunks.
+
+    \b
+    sweep slurm configs/paper.yaml --chunks 64 --out runs/paper > paper.sbatch
+    sbatch paper.sbatch        # or pipe: ... | sbatch
+    sweep status runs/paper
+    sweep merge runs/paper --out paper.h5
+
+    Creates DIR and DIR/logs (Slurm does not create log directories) and writes the frozen config
+    and chunk plan to DIR/sweep-manifest.json, so every task checks it runs the same sweep.
+    """
+    from . import slurm
+    from .chunks import chunk_ranges
+    from .store import RunDir, ensure_manifest
+
+    extra = {}
+    for item in sbatch_opts:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip("-"):
+            raise SweepInputError(f"--sbatch: expected KEY=VALUE, got {item!r}")
+        extra[key.strip().lstrip("-")] = value
+    with _errors_exit_2():
+        try:
+            chunk_ranges(scene.n_items, chunks, scene.group_size)
+        except ValueError as exc:
+            raise SweepInputError(f"--chunks: {exc}") from None
+        if sweep_cmd is None:
+            exe = Path(sys.executable).parent / "sweep"
+            sweep_cmd = str(exe) if exe.exists() else (shutil.which("sweep") or "sweep")
+        rundir = RunDir(out.resolve())
+        ensure_manifest(rundir, scene, chunks)
+        rundir.logs.mkdir(parents=True, exist_ok=True)
+        text = slurm.sbatch_script(
+            config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
+            job_name=job_name or f"sweep-{scene.name}", sweep_cmd=sweep_cmd, parallel=parallel,
+            cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
+            account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
+    click.echo(text, nl=False)
+
+
+def cmd_status(directory):
+    """Say which shards of a chunked run directory are done, missing, corrupt or mismatched.
+
+    Exit code 0 when every shard is done (ready for `sweep merge`), 1 otherwise, 2 if DIR is not
+    a chunked run directory.
+    """
+    from .store import scan_shards
+
+    with _errors_exit_2():
+        st = scan_shards(directory)
+    counts = st.counts()
+    summary = ", ".join(f"{counts[k]} {k}" for k in ("done", "missing", "corrupt", "mismatched",
+                                                      "duplicate") if counts.get(k))
+    cfg = st.manifest["config_hash"][:12] if st.manifest else "unknown (no manifest)"
+    click.echo(f"{directory}: {st.n_chunks} shards: {summary}; config {cfg}")
+    for s in st.shards + st.stray:
+        rng = f"items {s.range[0]}-{s.range[1]}" if s.range else ""
+        name = s.path.name if s.path else ""
+        line = f"  {s.chunk:>5}  {s.state:<10}  {name:<28} {rng}"
+        if s.detail:
+            line += f"  {s.detail}"
+        click.echo(line.rstrip())
+    if not st.complete:
+        sys.exit(1)
+
+
+def cmd_merge(directory, out, overwrite):
+    """Merge the shards of a chunked run directory into one results store.
+
+    Refuses (exit code 2, nothing written) when a shard is missing, corrupt, duplicated, or from
+    a different config, chunking or sweep version.
+    """
+    from .store import merge_shards
+
+    if out.exists() and not overwrite:
+        raise SweepInputError(f"--out: {out} exists; pass --overwrite to replace it")
+    with _errors_exit_2():
+        scene, st = merge_shards(directory, out)
+    click.echo(f"wrote {out}: {scene.n_maps:,} maps from {st.n_chunks} shards "
+               f"(config {scene.config_hash[:12]})")
+
+
+TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
+               "n_reached")
+
+
+def cmd_top(results, r, mu, n, by, ascending, command):
+    """Print the best designs for one part (r, mu) of a results store, as a table.
+
+    Designs are ranked by --by (default Lambda, the paper's caging metric; at a fixed grid
+    spacing caging_area ranks identically), largest first unless --ascending; ties keep the
+    store's order. Example: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10 --by caging_area
+    """
+    from .batch import SUMMARY_FIELDS
+    from .store import read_store
+
+    if by not in SUMMARY_FIELDS:
+        raise SweepInputError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
+    if n < 1:
+        raise SweepInputError(f"-n: must be >= 1, got {n}")
+    with _errors_exit_2():
+        view = read_store(results)
+    sel = {}
+    for name, value in (("r", r), ("mu", mu)):
+        coord = view.coords[name]
+        hits = np.flatnonzero(np.isclose(coord, value, rtol=1e-9, atol=1e-12))
+        if hits.size != 1:
+            raise SweepInputError(f"--{name}: {value:g} is not in the store (values: "
+                                  f"{', '.join(f'{v:g}' for v in coord)})")
+        sel[name] = int(hits[0])
+    if "command" in view.dims:
+        ncmd = view.coords["command"].size
+        if not 0 <= command < ncmd:
+            raise SweepInputError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
+        sel["command"] = command
+    design_dims = ("l1", "l2", "r1", "r2", "w")
+
+    def pick(arr):
+        index = tuple(sel.get(d, slice(None)) for d in view.dims)
+        return arr[index].reshape(-1)       # remaining dims are design_dims, in order
+
+    values = {f: pick(view.variables[f]) for f in view.variables}
+    key = values[by].astype(np.float64)
+    key = np.where(np.isnan(key), -np.inf if not ascending else np.inf, key)
+    order = np.argsort(key if ascending else -key, kind="stable")[:n]
+    grids = np.meshgrid(*(view.coords[d] for d in design_dims), indexing="ij")
+    designs = {d: g.reshape(-1) for d, g in zip(design_dims, grids)}
+    cols = list(TOP_COLUMNS) if by in TOP_COLUMNS else [by] + list(TOP_COLUMNS)
+    head = ["rank"] + list(design_dims) + cols
+    rows = []
+    for rank, i in enumerate(order, 1):
+        row = [str(rank)] + [f"{designs[d][i]:g}" for d in design_dims]
+        for c in cols:
+            v = values[c][i]
+            row.append(f"{v:.6g}" if np.issubdtype(values[c].dtype, np.floating) else f"{v:d}")
+        rows.append(row)
+    widths = [max(len(h), *(len(r_[k]) for r_ in rows)) for k, h in enumerate(head)]
+    cmd = ""
+    if "command" in view.dims:
+        cmd = f", command {command}"
+    elif "f_left" in view.attrs:
+        cmd = f", F_left {view.attrs['f_left']:g}, F_right {view.attrs['f_right']:g}"
+    ndesigns = values[by].size
+    click.echo(f"part r = {view.coords['r'][sel['r']]:g}, mu = {view.coords['mu'][sel['mu']]:g}"
+               f"{cmd}: top {len(rows)} of {ndesigns:,} designs by {by}"
+               f"{' (ascending)' if ascending else ''}; h = {view.attrs.get('grid_h', '?')}")
+    click.echo("  ".join(h.rjust(w) for h, w in zip(head, widths)))
+    for row in rows:
+        click.echo("  ".join(v.rjust(w) for v, w in zip(row, widths)))
+
+
+def cmd_show(results):
+    """Print what a results store (or a shard/part file) holds: dimensions, variables, config,
+    effects, grid, provenance and timings."""
+    from .store import CorruptFile, StoreError, read_block, read_store
+
+    try:
+        view = read_store(results)
+    except StoreError as store_exc:
+        try:
+            b = read_block(results, with_data=False)
+        except CorruptFile:
+            raise SweepInputError(str(store_exc)) from None
+        click.echo(f"{results}: {b.kind} of sweep {b.frozen.get('name')!r}, items "
+                   f"{b.start}-{b.stop} of {b.frozen and _n_items(b)}"
+                   + (f", chunk {b.chunk} of {b.n_chunks}" if b.chunk is not None else ""))
+        click.echo(f"  config {b.config_hash[:12]}, sweep {b.version}, compute "
+                   f"{b.compute_seconds:.1f} s")
+        return
+    a = view.attrs
+    click.echo(f"{results}: results store of sweep {a.get('name')!r} ({a.get('created_by')}, "
+               f"{a.get('created_utc')})")
+    shape = " x ".join(f"{d} {view.coords[d].size}" for d in view.dims)
+    click.echo(f"  {int(a.get('n_maps', 0)):,} maps on {shape}")
+    for d in view.dims:
+        v = view.coords[d]
+        click.echo(f"    {d:<8} {', '.join(f'{x:g}' for x in v)}")
+    click.echo("  variables (" + ", ".join(view.dims) + "):")
+    for name, arr in view.variables.items():
+        ln = view.var_attrs[name].get("long_name", "")
+        click.echo(f"    {name:<17} {str(arr.dtype):<8} {ln}")
+    click.echo(f"  grid: h = {a.get('grid_h')}, bounds {a.get('grid_bounds')}; limits theta2 "
+               f"[{a.get('theta2_min_deg')}, {a.get('theta2_max_deg')}] deg; accuracy: "
+               f"reconfig_step {a.get('reconfig_step')}, root_tol {a.get('root_tol')}, "
+               f"trajectory {a.get('trajectory')}")
+    if "f_left" in a:
+        click.echo(f"  command: F_left {a['f_left']:g}, F_right {a['f_right']:g}")
+    click.echo(f"  effects on: {a.get('effects_on')}")
+    click.echo(f"  config {str(a.get('config_hash'))[:12]}, sweep {a.get('sweep_version')}, "
+               f"numba {a.get('numba_version')}, numpy {a.get('numpy_version')}, "
+               f"HDF5 {a.get('hdf5_version')}")
+    timing = [f"compute {a['compute_seconds']:.1f} s" if "compute_seconds" in a else "",
+              f"wall {a['wall_seconds']:.1f} s" if "wall_seconds" in a else "",
+              f"{a['maps_per_second']:,.0f} maps/s" if "maps_per_second" in a else ""]
+    click.echo("  timings: " + ", ".join(t for t in timing if t))
+    if "saved_maps" in a:
+        import json
+
+        names = json.loads(a["saved_maps"])
+        click.echo(f"  {len(names)} full maps saved in {a.get('saved_maps_dir')}:")
+        for name in names:
+            click.echo(f"    {name}")
+
+
+def _n_items(b) -> str:
+    try:
+        from .store import scene_from_frozen
+
+        return f"{scene_from_frozen(b.frozen).n_items:,}"
+    except Exception:  # noqa: BLE001 - display only
+        return "?"
+
+
+# ---------------------------------------------------------------------------------------------
+def register(group: click.Group) -> None:
+    """Add the sweep commands to `group`."""
+    path_out = click.Path(path_type=Path)
+
+    @group.command("run", short_help="Compute a sweep (one machine, or one chunk).")
+    @click.argument("config", type=CONFIG)
+    @click.option("--out", type=path_out, required=True,
+                  help="Results store (.h5) to write; with --chunks, the run directory.")
+    @click.option("--chunk", type=int, default=None,
+                  help="Which chunk to compute, 0..N-1 (default: from the array job's "
+                       "environment).")
+    @click.option("--chunks", type=int, default=None,
+                  help="Split the sweep into N chunks and compute one (cluster runs).")
+    @click.option("--threads", type=int, default=None,
+                  help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
+    @click.option("--progress/--no-progress", default=True, show_default=True,
+                  help="Progress bar on stderr (maps done, maps/s, ETA).")
+    @click.option("--restart", is_flag=True,
+                  help="Discard finished sub-chunks of an earlier run instead of resuming.")
+    @click.option("--overwrite", is_flag=True,
+                  help="Replace an existing results file of another config.")
+    @click.option("--keep-parts", is_flag=True,
+                  help="Keep the RESULTS.parts/ work directory after assembling the store.")
+    def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts):
+        cmd_run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts)
+
+    run.help = cmd_run.__doc__
+
+    @group.command("slurm", short_help="Print an sbatch array script for a sweep.")
+    @click.argument("config", type=CONFIG)
+    @click.option("--chunks", type=click.IntRange(min=1), required=True,
+                  help="Number of chunks (array tasks).")
+    @click.option("--out", type=path_out, required=True, help="Run directory for the shards.")
+    @click.option("--parallel", type=click.IntRange(min=1), default=None,
+                  help="Most array tasks running at once (--array=0-{N-1}%P).")
+    @click.option("--cpus-per-task", type=click.IntRange(min=1), default=4, show_default=True,
+                  help="Cores per task (becomes the task's thread count).")
+    @click.option("--time", "time_limit", default="01:00:00", show_default=True,
+                  help="Wall-time limit per task; a task that hits it resumes when resubmitted.")
+    @click.option("--mem", default=None, help="Memory per task, e.g. 4G.")
+    @click.option("--partition", default=None, help="Slurm partition.")
+    @click.option("--account", default=None, help="Slurm account.")
+    @click.option("--job-name", default=None, help="Job name (default: sweep-NAME).")
+    @click.option("--sweep-cmd", default=None,
+                  help="Command that runs sweep on the nodes (default: this installation's).")
+    @click.option("--sbatch", "sbatch_opts", multiple=True, metavar="KEY=VALUE",
+                  help="Extra #SBATCH option, repeatable (e.g. --sbatch qos=long).")
+    def slurm_cmd(config, chunks, out, parallel, cpus_per_task, time_limit, mem, partition,
+                  account, job_name, sweep_cmd, sbatch_opts):
+        cmd_slurm(config, chunks, out, parallel, cpus_per_task, time_limit,
+                  mem, partition, account, job_name, sweep_cmd, sbatch_opts)
+
+    slurm_cmd.help = cmd_slurm.__doc__
+
+    @group.command("status", short_help="Which shards of a run directory are done.")
+    @click.argument("directory", type=click.Path(path_type=Path))
+    def status(directory):
+        cmd_status(directory)
+
+    status.help = cmd_status.__doc__
+
+    @group.command("merge", short_help="Merge finished shards into one store.")
+    @click.argument("directory", type=click.Path(path_type=Path))
+    @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+                  help="Results store (.h5) to write.")
+    @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+    def merge(directory, out, overwrite):
+        cmd_merge(directory, out, overwrite)
+
+    merge.help = cmd_merge.__doc__
+
+    @group.command("top", short_help="Best designs for one part, as a table.")
+    @click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+    @click.option("--r", "r", type=float, required=True, help="Part radius (a value of the store).")
+    @click.option("--mu", type=float, required=True, help="Part friction (a value of the store).")
+    @click.option("-n", "n", type=int, default=10, show_default=True, help="How many designs.")
+    @click.option("--by", default="Lambda", show_default=True,
+                  help="Summary variable to rank by (e.g. caging_area, n_caged).")
+    @click.option("--ascending", is_flag=True, help="Smallest first.")
+    @click.option("--command", "command", type=int, default=0, show_default=True,
+                  help="Command index, for stores with several commands.")
+    def top(results, r, mu, n, by, ascending, command):
+        cmd_top(results, r, mu, n, by, ascending, command)
+
+    top.help = cmd_top.__doc__
+
+    @group.command("show", short_help="What a results store holds.")
+    @click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+    def show(results):
+        cmd_show(results)
+
+    show.help = cmd_show.__doc__
+
+
+def main(argv=None):
+    """`python -m sweep.cli_sweep ...`: the sweep commands without the rest of the CLI."""
+    group = click.Group("sweep", help="Sweep commands.")
+    register(group)
+    return group.main(args=argv, prog_name="sweep")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

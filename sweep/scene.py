@@ -1,0 +1,497 @@
+"""Sweep configs ("scenes"): the YAML schema, loading, validation, expansion and the config hash.
+
+A scene names everything that decides the numbers of a sweep (MODEL 1, 8, 9, 10): the design and
+part values, the command(s), the grid, the joint limits, the accuracy settings and the effects.
+It is validated once, here, before any work starts; every error is a `SceneError` (a
+`ModelInputError`) whose one-line message starts with the key it is about, e.g.
+``designs.l1.step: must be > 0, got 0``.
+
+Parameter values are written either as a range ``{lower, upper, step}``, an explicit list, or a
+single number. A range expands by integer index, value ``i = lower + i*step`` for
+``0 <= i <= floor((upper - lower)/step)``, computed in exact decimal arithmetic from the numbers as
+written and rounded once to the nearest double: ``0.4 + 3*0.2`` is ``1.0``, not
+``1.0000000000000002``, and nothing is ever accumulated.
+
+Work order (see `ITEM_ORDER`): a *work item* is one cell ``(l1, l2, r1, r2, r, mu)`` under one
+command, evaluated at every palm width ``w`` (the unit of `sweep.batch.summarize_cells`). Items are
+numbered with ``(l1, l2, r)`` outermost, so the items that share finger contact geometry form one
+contiguous *geometry group*; chunks and sub-chunks are cut along those groups (`sweep.chunks`).
+"""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from decimal import Decimal, InvalidOperation
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from . import __version__
+from .model import (GRID_TOL, IMPLEMENTED_EFFECTS, Accuracy, Command, Design, Effects, Limits,
+                    ModelInputError, Part, validate_inputs)
+
+DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
+PART_KEYS = ("r", "mu")
+#: Dimensions of the results store, in storage order (a `command` dimension is appended when a
+#: scene has more than one command).
+STORE_DIMS = ("l1", "l2", "r1", "r2", "w", "r", "mu")
+#: Work-item numbering, outermost first: (l1, l2, r) lead so that items sharing finger geometry are
+#: contiguous. `w` is not here: every item covers all widths.
+ITEM_ORDER = ("l1", "l2", "r", "command", "r1", "r2", "mu")
+#: How many leading entries of ITEM_ORDER define a geometry group.
+GROUP_AXES = 3
+
+TOP_KEYS = ("name", "designs", "parts", "commands", "grid", "limits", "accuracy", "effects",
+            "outputs", "run")
+RANGE_KEYS = ("lower", "upper", "step")
+COMMAND_KEYS = ("f_left", "f_right")
+GRID_KEYS = ("h", "bounds")
+GRID_BOUNDS = ("reach",)
+LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
+ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
+TRAJECTORY_METHODS = ("discrete",)
+EFFECT_KEYS = ("friction", "tip_contact", "joint_springs", "finger_collision")
+OUTPUT_KEYS = ("save_maps",)
+SAVE_MAP_KEYS = STORE_DIMS + ("command",)
+RUN_KEYS = ("sub_chunk_cells",)
+
+#: Most values one parameter may expand to (a typo such as step 1e-9 fails here, not in memory).
+MAX_VALUES_PER_PARAMETER = 100_000
+#: Largest estimated working set of one map (`sweep.maps.BYTES_PER_POINT` per grid point) that a
+#: config may ask for. A fixed cap, not the free memory of the machine that validates: a config
+#: checked on a login node must mean the same on a compute node.
+MAX_MAP_BYTES = 4 * 1024**3
+
+_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
+
+
+class SceneError(ModelInputError):
+    """A bad config; the message starts with the key it is about."""
+
+
+# ---------------------------------------------------------------------------------------------
+# The resolved scene
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Scene:
+    """A validated, fully expanded sweep config."""
+
+    name: str
+    values: dict            # STORE_DIMS name -> tuple of floats (strictly increasing)
+    commands: tuple         # of Command
+    h: float
+    bounds: str
+    limits: Limits
+    accuracy: Accuracy
+    effects: Effects
+    save_maps: tuple = ()   # of dicts with STORE_DIMS keys (+ "command" index)
+    sub_chunk_cells: int | None = None
+    source: dict = field(default_factory=dict, compare=False)  # the config as written
+    path: str | None = field(default=None, compare=False)      # the file it was read from
+
+    # --- shape of the sweep -----------------------------------------------------------------
+    @property
+    def widths(self) -> np.ndarray:
+        return np.array(self.values["w"], dtype=np.float64)
+
+    def axis_len(self, name: str) -> int:
+        return len(self.commands) if name == "command" else len(self.values[name])
+
+    @property
+    def item_shape(self) -> tuple[int, ...]:
+        return tuple(self.axis_len(a) for a in ITEM_ORDER)
+
+    @property
+    def n_items(self) -> int:
+        return math.prod(self.item_shape)
+
+    @property
+    def group_size(self) -> int:
+        """Items per geometry group (same l1, l2, r)."""
+        return math.prod(self.item_shape[GROUP_AXES:])
+
+    @property
+    def n_groups(self) -> int:
+        return math.prod(self.item_shape[:GROUP_AXES])
+
+    @property
+    def n_maps(self) -> int:
+        return self.n_items * len(self.values["w"])
+
+    @property
+    def store_dims(self) -> tuple[str, ...]:
+        return STORE_DIMS + (("command",) if len(self.commands) > 1 else ())
+
+    @property
+    def store_shape(self) -> tuple[int, ...]:
+        return tuple(self.axis_len(d) for d in self.store_dims)
+
+    # --- work items ---------------------------------------------------------------------------
+    def item_indices(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Per ITEM_ORDER axis, the value index of every item in [start, stop)."""
+        idx = np.unravel_index(np.arange(start, stop, dtype=np.int64), self.item_shape)
+        return dict(zip(ITEM_ORDER, idx))
+
+    def cells(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Items [start, stop) as `sweep.batch` cells: float64 (n, 6) in CELL_COLUMNS order
+        (l1, l2, r1, r2, r, mu), and the command index of each item (int64)."""
+        from .batch import CELL_COLUMNS
+
+        ix = self.item_indices(start, stop)
+        cols = [np.asarray(self.values[c], dtype=np.float64)[ix[c]] for c in CELL_COLUMNS]
+        cells = np.stack(cols, axis=1) if cols[0].size else np.zeros((0, len(CELL_COLUMNS)))
+        return np.ascontiguousarray(cells, dtype=np.float64), ix["command"].astype(np.int64)
+
+    def item_of(self, point: dict) -> int:
+        """Item index of a save_maps-style entry (values on the sweep's grid)."""
+        multi = []
+        for a in ITEM_ORDER:
+            if a == "command":
+                multi.append(int(point.get("command", 0)))
+            else:
+                multi.append(_index_of(self.values[a], point[a]))
+        return int(np.ravel_multi_index(tuple(multi), self.item_shape))
+
+    def group_costs(self) -> np.ndarray:
+        """Relative cost of each geometry group: grid points summed over its maps (MODEL 8)."""
+        costs = []
+        l1s, l2s, rs = (self.values[a] for a in ITEM_ORDER[:GROUP_AXES])
+        for l1 in l1s:
+            for l2 in l2s:
+                for r in rs:
+                    pts = sum(grid_points(l1, l2, w, r, self.h) for w in self.values["w"])
+                    costs.append(pts * self.group_size)
+        return np.array(costs, dtype=np.float64)
+
+    # --- identity -----------------------------------------------------------------------------
+    def resolved(self) -> dict:
+        """Everything that decides the summaries, fully expanded (JSON-able). Hashed."""
+        return dict(
+            designs={k: list(self.values[k]) for k in DESIGN_KEYS},
+            parts={k: list(self.values[k]) for k in PART_KEYS},
+            commands=[dict(f_left=c.f_left, f_right=c.f_right) for c in self.commands],
+            grid=dict(h=self.h, bounds=self.bounds),
+            limits=dict(theta2_min_deg=self.limits.theta2_min_deg,
+                        theta2_max_deg=self.limits.theta2_max_deg),
+            accuracy=dict(reconfig_step=self.accuracy.reconfig_step,
+                          root_tol=self.accuracy.root_tol, trajectory=self.accuracy.trajectory),
+            effects={k: getattr(self.effects, k) for k in EFFECT_KEYS},
+            item_order=list(ITEM_ORDER),
+        )
+
+    @property
+    def config_hash(self) -> str:
+        """sha256 of the resolved config. Name, outputs and run settings do not enter it: they
+        change no summary, so a rerun with another sub-chunk size still resumes."""
+        text = json.dumps(self.resolved(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def frozen(self) -> dict:
+        """What a run directory / output file records about the config (habit 8)."""
+        return dict(name=self.name, config_hash=self.config_hash, sweep_version=__version__,
+                    resolved=self.resolved(), source=self.source,
+                    save_maps=list(self.save_maps), sub_chunk_cells=self.sub_chunk_cells)
+
+
+def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
+    """Points of the default whole-reach grid of one map (MODEL 8; as `sweep.maps.map_grid`)."""
+    from .maps import reach
+
+    X, Y = reach(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0))
+    N = math.floor(X / h + GRID_TOL)
+    M = math.floor((Y - r) / h + GRID_TOL)
+    return (2 * N + 1) * (M + 1)
+
+
+def _index_of(values, v) -> int:
+    for i, x in enumerate(values):
+        if math.isclose(x, float(v), rel_tol=1e-9, abs_tol=1e-12):
+            return i
+    raise KeyError(v)
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+# ---------------------------------------------------------------------------------------------
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise SceneError(f"{key}: duplicate key (line {key_node.start_mark.line + 1})")
+        seen.add(key)
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read, validate and expand a YAML config. Raises SceneError naming the bad key."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read config ({exc.strerror or exc})") from None
+    try:
+        raw = yaml.load(text, Loader=_UniqueKeyLoader)
+    except yaml.YAMLError as exc:
+        where = getattr(exc, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        raise SceneError(f"{path.name}: not valid YAML{line}: "
+                         f"{getattr(exc, 'problem', None) or exc}") from None
+    return dataclasses.replace(scene_from_dict(raw, default_name=path.stem), path=str(path))
+
+
+def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
+    """Validate and expand a parsed config mapping."""
+    raw = _mapping(raw, "config", TOP_KEYS, required=("designs", "parts"))
+
+    name = raw.get("name", default_name)
+    if not isinstance(name, str) or not _NAME_RE.match(name):
+        raise SceneError(f"name: must be letters, digits, '_', '.' or '-' (used in file and job "
+                         f"names), got {name!r}")
+
+    values = {}
+    designs = _mapping(raw["designs"], "designs", DESIGN_KEYS, required=DESIGN_KEYS)
+    parts = _mapping(raw["parts"], "parts", PART_KEYS, required=PART_KEYS)
+    for k in DESIGN_KEYS:
+        values[k] = _expand(designs[k], f"designs.{k}")
+    for k in PART_KEYS:
+        values[k] = _expand(parts[k], f"parts.{k}")
+    _check_physical(values)
+
+    commands = _commands(raw.get("commands", [dict(f_left=1.0, f_right=1.0)]))
+
+    grid = _mapping(raw.get("grid", {}), "grid", GRID_KEYS)
+    h = _number(grid.get("h", 0.05), "grid.h")
+    if not h > 0:
+        raise SceneError(f"grid.h: must be > 0, got {h!r}")
+    bounds = grid.get("bounds", "reach")
+    if bounds not in GRID_BOUNDS:
+        raise SceneError(f"grid.bounds: must be one of {', '.join(GRID_BOUNDS)} (the whole reach "
+                         f"of each design, MODEL 8), got {bounds!r}")
+
+    lim = _mapping(raw.get("limits", {}), "limits", LIMIT_KEYS)
+    limits = Limits(
+        theta2_min_deg=_number(lim.get("theta2_min_deg", -5.0), "limits.theta2_min_deg"),
+        theta2_max_deg=_number(lim.get("theta2_max_deg", 90.0), "limits.theta2_max_deg"))
+    if not -90.0 < limits.theta2_min_deg <= 0.0:
+        raise SceneError(f"limits.theta2_min_deg: must be in (-90, 0] (MODEL 1), "
+                         f"got {limits.theta2_min_deg!r}")
+    if not limits.theta2_min_deg < limits.theta2_max_deg <= 180.0:
+        raise SceneError(f"limits.theta2_max_deg: must be in (theta2_min_deg, 180], "
+                         f"got {limits.theta2_max_deg!r}")
+
+    acc = _mapping(raw.get("accuracy", {}), "accuracy", ACCURACY_KEYS)
+    accuracy = Accuracy(
+        reconfig_step=_number(acc.get("reconfig_step", 0.01), "accuracy.reconfig_step"),
+        root_tol=_number(acc.get("root_tol", 1e-12), "accuracy.root_tol"),
+        trajectory=acc.get("trajectory", "discrete"))
+    if not 0 < accuracy.reconfig_step <= 0.5:
+        raise SceneError(f"accuracy.reconfig_step: must be in (0, 0.5] rad, "
+                         f"got {accuracy.reconfig_step!r}")
+    if not accuracy.root_tol > 0:
+        raise SceneError(f"accuracy.root_tol: must be > 0, got {accuracy.root_tol!r}")
+    if accuracy.trajectory not in TRAJECTORY_METHODS:
+        raise SceneError(f"accuracy.trajectory: {accuracy.trajectory!r} is not implemented "
+                         f"(valid: {', '.join(TRAJECTORY_METHODS)})")
+
+    eff = _mapping(raw.get("effects", {}), "effects", EFFECT_KEYS)
+    flags = {}
+    for k in EFFECT_KEYS:
+        v = eff.get(k, k == "friction")
+        if not isinstance(v, bool):
+            raise SceneError(f"effects.{k}: must be true or false, got {v!r}")
+        if v and k not in IMPLEMENTED_EFFECTS:
+            raise SceneError(f"effects.{k}: not implemented yet (implemented: "
+                             f"{', '.join(sorted(IMPLEMENTED_EFFECTS))}); set it to false")
+        flags[k] = v
+    effects = Effects(**flags)
+    if not effects.friction and any(m != 0 for m in values["mu"]):
+        raise SceneError("effects.friction: false, but parts.mu has values other than 0; for a "
+                         "frictionless sweep write parts.mu: [0.0]")
+
+    # Backstop: the model's own edge validation on the extreme corners of the sweep.
+    for pick in (min, max):
+        design = Design(**{k: pick(values[k]) for k in DESIGN_KEYS})
+        part = Part(r=pick(values["r"]), mu=pick(values["mu"]))
+        for c in commands:
+            try:
+                validate_inputs(design, part, c, limits, accuracy, effects)
+            except ModelInputError as exc:
+                raise SceneError(f"config: {exc}") from None
+
+    _check_memory(values, h)
+
+    outputs = _mapping(raw.get("outputs", {}) or {}, "outputs", OUTPUT_KEYS)
+    save_maps = _save_maps(outputs.get("save_maps", []) or [], values, len(commands))
+
+    run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
+    sub = run.get("sub_chunk_cells")
+    if sub is not None and (isinstance(sub, bool) or not isinstance(sub, int) or sub < 1):
+        raise SceneError(f"run.sub_chunk_cells: must be a whole number >= 1, got {sub!r}")
+
+    return Scene(name=name, values=values, commands=commands, h=h, bounds=bounds, limits=limits,
+                 accuracy=accuracy, effects=effects, save_maps=save_maps, sub_chunk_cells=sub,
+                 source=_jsonable(raw))
+
+
+# ---------------------------------------------------------------------------------------------
+# Pieces
+# ---------------------------------------------------------------------------------------------
+def _mapping(obj, key: str, valid, required=()) -> dict:
+    if not isinstance(obj, dict):
+        raise SceneError(f"{key}: must be a mapping with keys {', '.join(valid)}, "
+                         f"got {type(obj).__name__} {obj!r}")
+    for k in obj:
+        if k not in valid:
+            raise SceneError(f"{_join(key, k)}: unknown key (valid: {', '.join(valid)})")
+    for k in required:
+        if k not in obj:
+            raise SceneError(f"{_join(key, k)}: missing (required: {', '.join(required)})")
+    return obj
+
+
+def _join(prefix: str, k) -> str:
+    return str(k) if prefix == "config" else f"{prefix}.{k}"
+
+
+def _number(v, key: str) -> float:
+    """A finite number. Strings that read as numbers are accepted, because YAML 1.1 reads
+    ``1e-12`` (no dot) as a string."""
+    if isinstance(v, bool):
+        raise SceneError(f"{key}: must be a number, got {v!r}")
+    if isinstance(v, str):
+        try:
+            v = float(v)
+        except ValueError:
+            raise SceneError(f"{key}: must be a number, got {v!r}") from None
+    if not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise SceneError(f"{key}: must be a finite number, got {v!r}")
+    return float(v)
+
+
+def _decimal(v: float) -> Decimal:
+    return Decimal(repr(float(v)))
+
+
+def _expand(spec, key: str) -> tuple[float, ...]:
+    """A parameter spec -> strictly increasing tuple of floats (see the module docstring)."""
+    if isinstance(spec, dict):
+        _mapping(spec, key, RANGE_KEYS, required=RANGE_KEYS)
+        lower, upper, step = (_number(spec[k], f"{key}.{k}") for k in RANGE_KEYS)
+        if not step > 0:
+            raise SceneError(f"{key}.step: must be > 0, got {spec['step']!r}")
+        if lower > upper:
+            raise SceneError(f"{key}: empty range, lower ({lower!r}) > upper ({upper!r})")
+        lo, up, st = _decimal(lower), _decimal(upper), _decimal(step)
+        try:
+            n = int((up - lo) // st) + 1
+        except InvalidOperation:
+            n = MAX_VALUES_PER_PARAMETER + 1
+        if n > MAX_VALUES_PER_PARAMETER:
+            raise SceneError(f"{key}.step: {step!r} gives {n} values, more than "
+                             f"{MAX_VALUES_PER_PARAMETER}")
+        return tuple(float(lo + i * st) for i in range(n))
+    if isinstance(spec, list):
+        if not spec:
+            raise SceneError(f"{key}: empty list")
+        vals = tuple(_number(v, f"{key}[{i}]") for i, v in enumerate(spec))
+        for i in range(1, len(vals)):
+            if not vals[i] > vals[i - 1]:
+                raise SceneError(f"{key}[{i}]: list must be strictly increasing, got "
+                                 f"{vals[i]!r} after {vals[i - 1]!r}")
+        return vals
+    if isinstance(spec, (int, float, str)) and not isinstance(spec, bool):
+        return (_number(spec, key),)
+    raise SceneError(f"{key}: must be {{lower, upper, step}}, a list or a number, got {spec!r}")
+
+
+_PHYSICAL = dict(l1="designs.l1", l2="designs.l2", r1="designs.r1", r2="designs.r2",
+                 w="designs.w", r="parts.r", mu="parts.mu")
+
+
+def _check_physical(values: dict) -> None:
+    for k, key in _PHYSICAL.items():
+        lo = values[k][0]
+        if k in ("w", "mu"):
+            if lo < 0:
+                raise SceneError(f"{key}: must be >= 0, got {lo!r}")
+        elif not lo > 0:
+            raise SceneError(f"{key}: must be > 0, got {lo!r}")
+
+
+def _commands(spec) -> tuple[Command, ...]:
+    if not isinstance(spec, list) or not spec:
+        raise SceneError(f"commands: must be a non-empty list of {{f_left, f_right}}, got {spec!r}")
+    out = []
+    for i, c in enumerate(spec):
+        key = f"commands[{i}]"
+        _mapping(c, key, COMMAND_KEYS, required=COMMAND_KEYS)
+        fl, fr = (_number(c[k], f"{key}.{k}") for k in COMMAND_KEYS)
+        for k, v in (("f_left", fl), ("f_right", fr)):
+            if v < 0:
+                raise SceneError(f"{key}.{k}: must be >= 0, got {v!r}")
+        if fl == 0 and fr == 0:
+            raise SceneError(f"{key}: f_left and f_right are both 0 (nothing closes)")
+        cmd = Command(f_left=fl, f_right=fr)
+        if cmd in out:
+            raise SceneError(f"{key}: duplicate of commands[{out.index(cmd)}]")
+        out.append(cmd)
+    return tuple(out)
+
+
+def _check_memory(values: dict, h: float) -> None:
+    from .maps import BYTES_PER_POINT
+
+    l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
+    points = grid_points(l1, l2, w, r, h)
+    need = points * BYTES_PER_POINT
+    if need > MAX_MAP_BYTES:
+        raise SceneError(
+            f"grid.h: {h!r} gives {points:,} grid points for the largest design (l1={l1}, "
+            f"l2={l2}, w={w}, r={r}), about {need / 1024**3:.1f} GiB per map, above the "
+            f"{MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h")
+
+
+def _save_maps(spec, values: dict, n_commands: int) -> tuple[dict, ...]:
+    if not isinstance(spec, list):
+        raise SceneError(f"outputs.save_maps: must be a list of designs, got {spec!r}")
+    out = []
+    for i, entry in enumerate(spec):
+        key = f"outputs.save_maps[{i}]"
+        _mapping(entry, key, SAVE_MAP_KEYS, required=STORE_DIMS)
+        point = {}
+        for k in STORE_DIMS:
+            v = _number(entry[k], f"{key}.{k}")
+            try:
+                point[k] = values[k][_index_of(values[k], v)]
+            except KeyError:
+                raise SceneError(f"{key}.{k}: {v!r} is not one of the sweep's {k} values "
+                                 f"{_short(values[k])}") from None
+        c = entry.get("command", 0)
+        if isinstance(c, bool) or not isinstance(c, int) or not 0 <= c < n_commands:
+            raise SceneError(f"{key}.command: must be an index 0..{n_commands - 1}, got {c!r}")
+        point["command"] = c
+        if point not in out:
+            out.append(point)
+    return tuple(out)
+
+
+def _short(vals) -> str:
+    s = ", ".join(f"{v:g}" for v in vals[:8])
+    return f"({s}{', ...' if len(vals) > 8 else ''})"
+
+
+def _jsonable(obj):
+    return json.loads(json.dumps(obj, default=str))

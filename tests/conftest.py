@@ -1,0 +1,11 @@
+"""Test configuration: one deterministic Hypothesis profile for the whole suite."""
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "sweep",
+    deadline=None,
+    max_examples=60,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
+)
+settings.load_profile("sweep")
