@@ -134,7 +134,7 @@ def vertex_entry(ex, ey, rho, r, delta):
     if dist == 0.0 or rho == 0.0:
         return None
     c = (rho * rho + dist * dist - r * r) / (2.0 * rho * dist)
-    if c < -1.0 or c > 1.0:
+    if c < -1.0 or c >= 1.0 - RANGE_TOL:   # D3: a graze (c = 1) touches the disc without entering
         return None
     return math.atan2(ey, ex) - math.acos(c) - delta
 
@@ -244,7 +244,9 @@ def reconfigure(dx, dy, t1_0, l1, l2, r1, r2, r, mu, th2_max, step, root_tol):
     neg_t1, _, winner = min(crossings)
     t1 = -neg_t1
     t2, k2 = state(t1)
-    return (SLIPPED if winner == "slip" else DISTAL_ONLY), t1, t2, k2
+    if winner == "slip":
+        return SLIPPED, t1, t2, k2
+    return DISTAL_ONLY, t1, min(t2, th2_max), k2   # D4: a stop on the distal limit reports it
 
 
 def _result(mode, t1, t2, k1, k2, tip_overlap=False):
@@ -387,24 +389,49 @@ def cross3(o, a, b):
     return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
 
-def segments_cross_properly(p1, p2, q1, q2):
-    """Both orientation products strictly negative (D5)."""
-    return (cross3(q1, q2, p1) * cross3(q1, q2, p2) < 0.0
-            and cross3(p1, p2, q1) * cross3(p1, p2, q2) < 0.0)
+def segments_intersect(p1, p2, q1, q2):
+    """D5: the segments cross, or come within RANGE_TOL of each other (touching counts)."""
+    if (cross3(q1, q2, p1) * cross3(q1, q2, p2) < 0.0
+            and cross3(p1, p2, q1) * cross3(p1, p2, q2) < 0.0):
+        return True
+    return min(point_segment_distance(p1, q1, q2), point_segment_distance(p2, q1, q2),
+               point_segment_distance(q1, p1, p2), point_segment_distance(q2, p1, p2)) <= RANGE_TOL
+
+
+def fingers_intersect(left_pts, right_pts):
+    """D5: the two polylines meet anywhere except at a base they share (w = 0), where the
+    proximal links meet elsewhere only if a distal joint lies on the other proximal link."""
+    jl, bl, tl = left_pts
+    jr, br, tr = right_pts
+    for a1, a2 in ((jl, bl), (bl, tl)):
+        for b1, b2 in ((jr, br), (br, tr)):
+            if a1 is jl and b1 is jr and math.hypot(jl[0] - jr[0], jl[1] - jr[1]) <= RANGE_TOL:
+                if (point_segment_distance(bl, jr, br) <= RANGE_TOL
+                        or point_segment_distance(br, jl, bl) <= RANGE_TOL):
+                    return True
+            elif segments_intersect(a1, a2, b1, b2):
+                return True
+    return False
 
 
 def opening(left_pts, right_pts):
-    """L_open (M8, D5) and whether the fingers cross."""
+    """L_open (M8, D5) and whether the fingers intersect."""
     jl, bl, tl = left_pts
     jr, br, tr = right_pts
-    crossed = any(segments_cross_properly(a1, a2, b1, b2)
-                  for a1, a2 in ((jl, bl), (bl, tl)) for b1, b2 in ((jr, br), (br, tr)))
-    if crossed:
+    if fingers_intersect(left_pts, right_pts):
         return 0.0, True
     dists = [math.hypot(tl[0] - tr[0], tl[1] - tr[1]),
              point_segment_distance(tl, jr, br), point_segment_distance(tl, br, tr),
              point_segment_distance(tr, jl, bl), point_segment_distance(tr, bl, tl)]
     return min(dists), False
+
+
+def contained(poly, px, py):
+    """D5: PNPOLY, and a centre within RANGE_TOL of the polygon's boundary is not contained."""
+    if not pnpoly(poly, px, py):
+        return False
+    edges = zip(poly, poly[1:] + poly[:1])
+    return min(point_segment_distance((px, py), a, b) for a, b in edges) > RANGE_TOL
 
 
 def finger_energy(res, force, r1, r2, theta2_min):
@@ -511,7 +538,7 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
             pts = [[to_world(p, fi, w) for p in finger_points(res["t1"], res["t2"], l1, l2)]
                    for fi, res in enumerate(fingers)]
             (jl, bl, tl), (jr, br, tr) = pts
-            out["contained"][jj, ii] = pnpoly([jl, bl, tl, tr, br, jr], px, py)
+            out["contained"][jj, ii] = contained([jl, bl, tl, tr, br, jr], px, py)
             l_open, crossed[jj, ii] = opening(pts[0], pts[1])
             out["l_open"][jj, ii] = l_open
 
@@ -521,7 +548,7 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
                     normals.append((0.0, 1.0))
                 out["equilibrium"][jj, ii] = in_equilibrium(normals, mu)
             stable[jj, ii] = cls == REACHED and out["equilibrium"][jj, ii]
-            caged[jj, ii] = stable[jj, ii] and out["contained"][jj, ii] and l_open < 2.0 * r
+            caged[jj, ii] = stable[jj, ii] and out["contained"][jj, ii] and l_open < 2.0 * r - RANGE_TOL
             if caged[jj, ii]:
                 out["caging_score"][jj, ii] = 1.0 - l_open / (2.0 * r)
 

@@ -195,3 +195,41 @@ def test_contact_forces_balance_the_joint_torques(mode_args):
     else:  # distal on its lower stop: the stop adds closing torque (>= 0), proximal exact
         assert torque_proximal == pytest.approx(F * r1, rel=1e-12)
         assert torque_distal >= F * r2 * (1 - 1e-12)
+
+
+# --- tie rules of model-notes D3, D5 ---------------------------------------------------------
+from sweep.kernels.geometry import vertex_entry  # noqa: E402
+from sweep.kernels.part import fingers_cross, mouth_opening, part_contained  # noqa: E402
+
+
+def test_shared_base_at_zero_palm_width_is_not_a_crossing():
+    # w = 0, both fingers upright and apart: the polylines share only the base point.
+    left = (0.0, 0.0, -0.5, 1.0, -0.5, 2.0)
+    right = (0.0, 0.0, 0.5, 1.0, 0.5, 2.0)
+    assert not fingers_cross(left, right)
+    assert mouth_opening(left, right) == pytest.approx(1.0)
+    # ... but overlapping proximal links are (B_L on the right proximal link)
+    right_overlap = (0.0, 0.0, -1.0, 2.0, 0.0, 3.0)
+    assert fingers_cross((0.0, 0.0, -0.5, 1.0, -0.5, 2.0), right_overlap)
+
+
+def test_fingers_meeting_at_a_vertex_intersect():
+    # the right distal link passes exactly through the left distal joint B_L = (-1.8, 0)
+    left = (-0.2, 0.0, -1.8, 0.0, -1.8, 1.6)
+    right = (0.2, 0.0, -1.0, 1.0, -2.6, -1.0)  # B_R=(-1,1), T_R=(-2.6,-1): through (-1.8, 0)
+    assert fingers_cross(left, right)
+    assert mouth_opening(left, right) == 0.0
+
+
+def test_centre_on_the_mouth_is_not_contained():
+    left = (-0.4, 0.0, -0.4, 1.0, 0.0, 1.0)   # tips meet the mouth line y = 1 ...
+    right = (0.4, 0.0, 0.4, 1.0, 0.2, 1.0)
+    assert not part_contained(0.1, 1.0, left, right)  # ... centre exactly on T_L-T_R
+    assert part_contained(0.1, 0.9, left, right)
+
+
+def test_a_grazing_vertex_does_not_strike():
+    # vertex circle of radius 1 about the origin, disc of radius 0.5 centred at distance 1.5:
+    # the vertex touches the disc at one angle only (c = 1)
+    assert vertex_entry(1.5, 0.0, 1.0, 0.0, 0.5) == math.inf
+    assert vertex_entry(1.4, 0.0, 1.0, 0.0, 0.5) < math.inf

@@ -164,31 +164,26 @@ def test_fast_map_matches_reference(case):
     assert_maps_equal(fast, ref)
 
 
-# Points where MODEL 8 / D5 leave the answer to floating-point round-off (exact ties). Both
-# sides follow the text; they differ in the last bits of the finger vertices. Strict xfail: when
-# the model notes settle these ties (and both sides follow), these start passing and must be
-# moved back into MAP_CASES.
+# Exact geometric ties on grid points, which round-off would decide; model-notes D3-D5 decide them
+# with tolerances instead, and both implementations must then agree bit for bit on the classes.
 ROUNDOFF_TIES = [
-    pytest.param((1.2, 0.4, 0.20, 0.20, 1.2, 1.6, 1.0, 1.0, 1.0, 0.1), marks=pytest.mark.xfail(
-        strict=True, reason="w == l1: a FREE finger's joint B lands exactly on the other "
-        "finger's base J; whether its distal link 'crosses properly' the other proximal link is "
-        "decided by round-off (e.g. x=-3.3, y=1.6: fast l_open 0, reference 0.4 = l2, the "
-        "exact-arithmetic value)"), id="w-equals-l1-free-finger-crossing"),
-    pytest.param((0.4, 0.8, 0.04, 0.02, 1.6, 0.4, 0.1, 1.0, 1.0, 0.2), marks=pytest.mark.xfail(
-        strict=True, reason="part centre exactly on the mouth segment T_L-T_R (x=0.8, y=0.4): "
-        "PNPOLY on a boundary point depends on edge orientation / last-bit vertex coordinates "
-        "(fast contained False, reference True)"), id="centre-on-mouth-segment"),
-    pytest.param((1.6, 0.8, 0.16, 0.10, 0.8, 0.4, 1.0, 0.4, 1.6, 0.1), marks=pytest.mark.xfail(
-        strict=True, reason="L_open == 2r exactly at x=+-0.4, y=0.4 (|T_L - T_R| = 0.8): fast "
-        "0.8 (not caged, TIP PREHENSION), reference 0.7999999999999998 (CAGED, score 2e-16)"),
-        id="l-open-equals-2r"),
-    pytest.param((1.6, 1.6, 0.08, 0.02, 0.4, 0.4, 0.1, 1.0, 1.0, 0.2), marks=pytest.mark.xfail(
-        strict=True, reason="the right distal link passes exactly through the left joint B_L "
-        "(x=-1, y=0.4; mirrored at x=1): the fingers cross through a vertex, which D5's "
-        "'proper crossing' test does not see in exact arithmetic (orientation product 0): "
-        "reference l_open 0.4 (distance T_R to J_L-B_L), fast 0 (crossed); caging score 0.5 vs "
-        "1.0, Lambda 124.565 vs 125.565, n_crossed_caged 15 vs 17"),
-        id="crossing-through-a-joint"),
+    # w == l1: a FREE finger's joint B lands exactly on the other finger's base J (x=-3.3, y=1.6):
+    # the polylines touch, so L_open = 0 in exact arithmetic too.
+    pytest.param((1.2, 0.4, 0.20, 0.20, 1.2, 1.6, 1.0, 1.0, 1.0, 0.1),
+                 id="w-equals-l1-free-finger-touch"),
+    # part centre exactly on the mouth segment T_L-T_R (x=0.8, y=0.4): on the boundary, so not
+    # contained.
+    pytest.param((0.4, 0.8, 0.04, 0.02, 1.6, 0.4, 0.1, 1.0, 1.0, 0.2),
+                 id="centre-on-mouth-segment"),
+    # L_open == 2r exactly at x=+-0.4, y=0.4 (|T_L - T_R| = 0.8): not caged.
+    pytest.param((1.6, 0.8, 0.16, 0.10, 0.8, 0.4, 1.0, 0.4, 1.6, 0.1), id="l-open-equals-2r"),
+    # the right distal link passes exactly through the left joint B_L (x=-1, y=0.4): the fingers
+    # meet at a vertex, L_open = 0.
+    pytest.param((1.6, 1.6, 0.08, 0.02, 0.4, 0.4, 0.1, 1.0, 1.0, 0.2),
+                 id="crossing-through-a-joint"),
+    # the same centre-on-mouth tie under unequal commands
+    pytest.param((1.6, 0.8, 0.08, 0.02, 1.6, 0.4, 0.4, 0.4, 1.6, 0.1),
+                 id="centre-on-mouth-unequal-commands"),
 ]
 
 

@@ -10,7 +10,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..model import (EJECT, END_CAGED, END_EJECTION, END_NONE, END_STALLED, END_TIP_PREHENSION,
-                     FREE, INFEASIBLE, REACHED, SLIPPED, UNREACHED, VERTEX, VERTEX_POINT)
+                     FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX,
+                     VERTEX_POINT)
 from .finger import OVERLAP, finger_energy, solve_finger
 from .part import finger_polyline, fingers_cross, mouth_opening, part_contained, \
     part_in_equilibrium
@@ -58,7 +59,7 @@ def finger_field_serial(dxs, dys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
 @njit(cache=True)
 def classify_point(y, r, mode_l, mode_r):
     """MODEL 8 classes, first that applies."""
-    if y < r - 1e-12 or mode_l == OVERLAP or mode_r == OVERLAP:
+    if y < r - RANGE_TOL or mode_l == OVERLAP or mode_r == OVERLAP:
         return INFEASIBLE
     if mode_l == SLIPPED or mode_r == SLIPPED:
         return EJECT
@@ -115,7 +116,7 @@ def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
         if c == REACHED:
             eq = part_in_equilibrium(scratch, x, y, w, r, mu, ml, a1l, a2l, mr, a1r, a2r)
             equilibrium[j, i] = eq
-            if eq and inside and opening < 2.0 * r:
+            if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
                 caged[j, i] = True
                 caging_score[j, i] = 1.0 - opening / (2.0 * r)
 

@@ -247,7 +247,8 @@ def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_
     t2, k2 = distal_tangency(dx, dy, best_t1, l1, r)
     if best_event == SLIP:
         return SLIPPED, best_t1, t2, k2
-    return DISTAL_ONLY, best_t1, t2, k2
+    # the bracket end may lie past the distal stop by up to root_tol: report the stop itself
+    return DISTAL_ONLY, best_t1, min(t2, theta2_max), k2
 
 
 @njit(cache=True)

@@ -90,13 +90,14 @@ def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
 def vertex_entry(dx, dy, rho, delta, r):
     """MODEL 4: turning angle at which a vertex at radius rho, polar offset delta, enters the disc.
 
-    The vertex turns counter-clockwise about the origin of (dx, dy). Returns inf if it never does.
+    The vertex turns counter-clockwise about the origin of (dx, dy). Returns inf if it never does,
+    or only grazes the disc (model-notes D3).
     """
     dist2 = dx * dx + dy * dy
     if dist2 <= 0.0 or rho <= 0.0:
         return NO_ANGLE
     dist = math.sqrt(dist2)
     c = (rho * rho + dist2 - r * r) / (2.0 * rho * dist)
-    if c > 1.0 or c < -1.0:
+    if c >= 1.0 - RANGE_TOL or c < -1.0:  # a graze (c = 1) touches without entering
         return NO_ANGLE
     return math.atan2(dy, dx) - math.acos(c) - delta

@@ -7,7 +7,9 @@ import math
 
 from numba import njit
 
-from ..model import (DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, TWO_PHALANX)
+from ..model import (DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX)
+
+TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or segments touch
 
 
 @njit(cache=True)
@@ -89,7 +91,12 @@ def _edge_toggles(px, py, ax, ay, bx, by):
 
 @njit(cache=True)
 def part_contained(px, py, left, right):
-    """Even-odd test of the part centre in the polygon J_L, B_L, T_L, T_R, B_R, J_R."""
+    """The part centre strictly inside the polygon J_L, B_L, T_L, T_R, B_R, J_R.
+
+    Even-odd (PNPOLY) test; a centre within RANGE_TOL of the boundary (e.g. exactly on the mouth
+    segment T_L-T_R) is not contained, so boundary points are decided by a tolerance, not by
+    round-off (model-notes D5).
+    """
     jlx, jly, blx, bly, tlx, tly = left
     jrx, jry, brx, bry, trx, try_ = right
     inside = False
@@ -105,11 +112,20 @@ def part_contained(px, py, left, right):
         inside = not inside
     if _edge_toggles(px, py, jrx, jry, jlx, jly):
         inside = not inside
-    return inside
+    if not inside:
+        return False
+    boundary = min(point_segment_distance2(px, py, jlx, jly, blx, bly),
+                   point_segment_distance2(px, py, blx, bly, tlx, tly),
+                   point_segment_distance2(px, py, tlx, tly, trx, try_),
+                   point_segment_distance2(px, py, trx, try_, brx, bry),
+                   point_segment_distance2(px, py, brx, bry, jrx, jry),
+                   point_segment_distance2(px, py, jrx, jry, jlx, jly))
+    return boundary > TOUCH2
 
 
 @njit(cache=True)
-def point_segment_distance(px, py, ax, ay, bx, by):
+def point_segment_distance2(px, py, ax, ay, bx, by):
+    """Squared distance from a point to a segment."""
     vx = bx - ax
     vy = by - ay
     length2 = vx * vx + vy * vy
@@ -118,7 +134,12 @@ def point_segment_distance(px, py, ax, ay, bx, by):
         s = min(max(((px - ax) * vx + (py - ay) * vy) / length2, 0.0), 1.0)
     dx = px - (ax + s * vx)
     dy = py - (ay + s * vy)
-    return math.sqrt(dx * dx + dy * dy)
+    return dx * dx + dy * dy
+
+
+@njit(cache=True)
+def point_segment_distance(px, py, ax, ay, bx, by):
+    return math.sqrt(point_segment_distance2(px, py, ax, ay, bx, by))
 
 
 @njit(cache=True)
@@ -127,25 +148,41 @@ def _orientation(ax, ay, bx, by, cx, cy):
 
 
 @njit(cache=True)
-def segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
-    """Proper crossing only (both orientation products strictly negative; model-notes D5)."""
-    return (_orientation(ax, ay, bx, by, cx, cy) * _orientation(ax, ay, bx, by, dx, dy) < 0.0
-            and _orientation(cx, cy, dx, dy, ax, ay) * _orientation(cx, cy, dx, dy, bx, by) < 0.0)
+def segments_intersect(ax, ay, bx, by, cx, cy, dx, dy):
+    """Segments AB and CD cross, or touch within RANGE_TOL (model-notes D5)."""
+    if (_orientation(ax, ay, bx, by, cx, cy) * _orientation(ax, ay, bx, by, dx, dy) < 0.0
+            and _orientation(cx, cy, dx, dy, ax, ay) * _orientation(cx, cy, dx, dy, bx, by) < 0.0):
+        return True
+    return min(point_segment_distance2(ax, ay, cx, cy, dx, dy),
+               point_segment_distance2(bx, by, cx, cy, dx, dy),
+               point_segment_distance2(cx, cy, ax, ay, bx, by),
+               point_segment_distance2(dx, dy, ax, ay, bx, by)) <= TOUCH2
 
 
 @njit(cache=True)
 def fingers_cross(left, right):
+    """The two fingers' polylines intersect (cross or touch), not counting a shared base.
+
+    With w = 0 both proximal links start at the palm centre; they meet elsewhere only if they
+    overlap, i.e. one distal joint lies on the other proximal link.
+    """
     jlx, jly, blx, bly, tlx, tly = left
     jrx, jry, brx, bry, trx, try_ = right
-    return (segments_cross(jlx, jly, blx, bly, jrx, jry, brx, bry)
-            or segments_cross(jlx, jly, blx, bly, brx, bry, trx, try_)
-            or segments_cross(blx, bly, tlx, tly, jrx, jry, brx, bry)
-            or segments_cross(blx, bly, tlx, tly, brx, bry, trx, try_))
+    if (jlx - jrx) ** 2 + (jly - jry) ** 2 <= TOUCH2:
+        proximal_pair = (point_segment_distance2(blx, bly, jrx, jry, brx, bry) <= TOUCH2
+                         or point_segment_distance2(brx, bry, jlx, jly, blx, bly) <= TOUCH2)
+    else:
+        proximal_pair = segments_intersect(jlx, jly, blx, bly, jrx, jry, brx, bry)
+    return (proximal_pair
+            or segments_intersect(jlx, jly, blx, bly, brx, bry, trx, try_)
+            or segments_intersect(blx, bly, tlx, tly, jrx, jry, brx, bry)
+            or segments_intersect(blx, bly, tlx, tly, brx, bry, trx, try_))
 
 
 @njit(cache=True)
 def mouth_opening(left, right):
-    """L_open (MODEL 8): the largest part that could escape between the fingertips; 0 if crossed."""
+    """L_open (MODEL 8): the largest part that could escape between the fingertips; 0 if the
+    fingers' polylines intersect."""
     if fingers_cross(left, right):
         return 0.0
     jlx, jly, blx, bly, tlx, tly = left
