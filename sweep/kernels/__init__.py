@@ -4,4 +4,35 @@ geometry  closed-form contact geometry (MODEL 3) and vertex strikes (MODEL 4)
 finger    one finger: closing sequence, stick-slip, reconfiguration, energy, forces (MODEL 4-6)
 part      part equilibrium, containment, opening (MODEL 7, 8)
 field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
+cells     many maps at once: summaries of cells x palm widths from shared finger fields
+
+Compiled kernels are cached on disk (`cache=True`). Numba checks only the file of the function it
+loads, so a kernel that inlines a changed function from another file would load stale code: the
+cache directory is therefore keyed by a hash of every kernel source (and of `model.py`, whose
+constants are frozen into them). It lives under $NUMBA_CACHE_DIR if set (on a cluster, point it
+at node-local disk), else under $XDG_CACHE_HOME/sweep (default ~/.cache/sweep).
 """
+import hashlib
+import os
+from pathlib import Path
+
+import numba
+
+
+def _kernel_source_digest() -> str:
+    here = Path(__file__).resolve().parent
+    digest = hashlib.sha256()
+    for path in sorted([*here.glob("*.py"), here.parent / "model.py"]):
+        digest.update(path.name.encode())
+        digest.update(path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _cache_root() -> Path:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return Path(os.environ["NUMBA_CACHE_DIR"])
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "sweep"
+
+
+# Must run before any @njit(cache=True) below is decorated: the locator is chosen then.
+numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")

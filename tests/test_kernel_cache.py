@@ -1,0 +1,35 @@
+"""The compiled-kernel cache is keyed by the kernel sources, so no stale code is ever loaded."""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numba
+
+import sweep.kernels as kernels
+
+
+def test_cache_directory_is_keyed_by_the_kernel_sources():
+    assert numba.config.CACHE_DIR.endswith(f"kernels-{kernels._kernel_source_digest()}")
+
+
+def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
+    fake = tmp_path / "sweep"
+    (fake / "kernels").mkdir(parents=True)
+    for path in Path(kernels.__file__).parent.glob("*.py"):
+        (fake / "kernels" / path.name).write_bytes(path.read_bytes())
+    (fake / "model.py").write_bytes((Path(kernels.__file__).parent.parent / "model.py").read_bytes())
+    monkeypatch.setattr(kernels, "__file__", str(fake / "kernels" / "__init__.py"))
+    before = kernels._kernel_source_digest()
+    part = fake / "kernels" / "part.py"
+    part.write_text(part.read_text() + "\n# changed\n")
+    assert kernels._kernel_source_digest() != before
+
+
+def test_numba_cache_dir_is_respected(tmp_path):
+    code = ("from sweep.maps import compute_map; from sweep.model import *; "
+            "compute_map(Design(1, 1, .1, .05, .4), Part(.4, .4), grid=Grid(h=.4))")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    caches = list(tmp_path.glob("kernels-*/**/*.nbi"))
+    assert caches, "no cache index written under NUMBA_CACHE_DIR"
