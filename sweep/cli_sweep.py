@@ -233,33 +233,49 @@ TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejecti
 
 
 def cmd_top(results, r, mu, n, by, ascending, command):
-    """Print the best designs for one part (r, mu) of a results store, as a table.
+    """Print the best designs of each part (r, mu) of a results store, as tables.
 
     Designs are ranked by --by (default Lambda, the paper's caging metric; at a fixed grid
     spacing caging_area ranks identically), largest first unless --ascending; ties keep the
-    store's order. Example: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10 --by caging_area
+    store's order. Without --r / --mu every part of the store is listed (by default its best
+    design only). Examples: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10 --by caging_area;
+    sweep top paper.h5   (the best design of each of the 16 parts)
     """
     from .batch import SUMMARY_FIELDS
     from .store import read_store
 
     if by not in SUMMARY_FIELDS:
         raise SweepInputError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
+    if n is None:
+        n = 10 if (r is not None and mu is not None) else 1
     if n < 1:
         raise SweepInputError(f"-n: must be >= 1, got {n}")
     with _errors_exit_2():
         view = read_store(results)
-    sel = {}
+    chosen = {}
     for name, value in (("r", r), ("mu", mu)):
         coord = view.coords[name]
+        if value is None:
+            chosen[name] = list(range(coord.size))
+            continue
         hits = np.flatnonzero(np.isclose(coord, value, rtol=1e-9, atol=1e-12))
         if hits.size != 1:
             raise SweepInputError(f"--{name}: {value:g} is not in the store (values: "
                                   f"{', '.join(f'{v:g}' for v in coord)})")
-        sel[name] = int(hits[0])
+        chosen[name] = [int(hits[0])]
     if "command" in view.dims:
         ncmd = view.coords["command"].size
         if not 0 <= command < ncmd:
             raise SweepInputError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
+    for k, (ri, mui) in enumerate((a, b) for a in chosen["r"] for b in chosen["mu"]):
+        if k:
+            click.echo("")
+        _print_top(view, ri, mui, n, by, ascending, command)
+
+
+def _print_top(view, ri, mui, n, by, ascending, command):
+    sel = {"r": ri, "mu": mui}
+    if "command" in view.dims:
         sel["command"] = command
     design_dims = ("l1", "l2", "r1", "r2", "w")
 
@@ -431,11 +447,14 @@ def register(group: click.Group) -> None:
 
     merge.help = cmd_merge.__doc__
 
-    @group.command("top", short_help="Best designs for one part, as a table.")
+    @group.command("top", short_help="Best designs of each part, as tables.")
     @click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
-    @click.option("--r", "r", type=float, required=True, help="Part radius (a value of the store).")
-    @click.option("--mu", type=float, required=True, help="Part friction (a value of the store).")
-    @click.option("-n", "n", type=int, default=10, show_default=True, help="How many designs.")
+    @click.option("--r", "r", type=float, default=None,
+                  help="Part radius (a value of the store); default: every radius.")
+    @click.option("--mu", type=float, default=None,
+                  help="Part friction (a value of the store); default: every value.")
+    @click.option("-n", "n", type=int, default=None,
+                  help="How many designs per part [default: 10 for one part, else 1].")
     @click.option("--by", default="Lambda", show_default=True,
                   help="Summary variable to rank by (e.g. caging_area, n_caged).")
     @click.option("--ascending", is_flag=True, help="Smallest first.")

@@ -351,6 +351,23 @@ def test_top_ranks_designs_of_one_part(cli, reference):
     assert invoke(cli, "top", path, "--r", 0.4, "--mu", 0.7, "--by", "speed").exit_code == 2
 
 
+def test_top_without_a_part_lists_the_best_design_of_every_part(cli, reference):
+    _, path = reference
+    res = invoke(cli, "top", path)
+    assert res.exit_code == 0, res.output
+    view = read_store(path)
+    n_parts = view.coords["r"].size * view.coords["mu"].size
+    headers = [line for line in res.output.splitlines() if line.startswith("part r = ")]
+    assert len(headers) == n_parts > 1
+    lam = view.variables["Lambda"]
+    best_rows = [line.split() for line in res.output.splitlines() if line.startswith("   1 ")]
+    head = res.output.splitlines()[1].split()
+    got = sorted(float(row[head.index("Lambda")]) for row in best_rows)
+    want = sorted(lam[:, :, :, :, :, i, k].max() for i in range(view.coords["r"].size)
+                  for k in range(view.coords["mu"].size))
+    np.testing.assert_allclose(got, want, rtol=1e-5)
+
+
 def test_show_describes_the_store(cli, reference):
     _, path = reference
     res = invoke(cli, "show", path)
