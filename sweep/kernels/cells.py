@@ -29,7 +29,7 @@ def summarize_filled_map(xs, ys, h, w, l1, l2, r1, r2, r, mu, f_left, f_right, t
     scratch = np.empty(16)
     map_outcomes_serial(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min, mode,
                         t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                        crossed, caged, caging_score, scratch)
+                        crossed, caged, caging_score, scratch, False)  # summaries only
     end_state = np.empty((ny, nx), dtype=np.int8)
     end_index = np.empty((ny, nx), dtype=np.int64)
     stack = np.empty(ny * nx, dtype=np.int64)

@@ -73,11 +73,13 @@ def classify_point(y, r, mode_l, mode_r):
 @njit(cache=True)
 def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
                 mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                crossed, caged, caging_score, scratch):
+                crossed, caged, caging_score, scratch, every_point):
     """Class, energy, equilibrium, containment, opening and point score along row j.
 
     mode/t1/t2/k1/k2 are (2, ny, nx) finger arrays (0 = left, 1 = right) and are overwritten with
-    fill values (-1 / NaN) at infeasible points.
+    fill values (-1 / NaN) at infeasible points. With every_point False (summaries only),
+    containment, L_open and crossing are computed only where the part is stable, the only points
+    whose score or counts depend on them; elsewhere they are left False / NaN.
     """
     for i in range(xs.shape[0]):
         x = xs[i]
@@ -106,6 +108,13 @@ def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
         a2r = t2[1, j, i]
         energy[j, i] = (finger_energy(a1l, a2l, r1, r2, f_left, theta2_min)
                         + finger_energy(a1r, a2r, r1, r2, f_right, theta2_min))
+        eq = False
+        if c == REACHED:
+            eq = part_in_equilibrium(scratch, x, y, w, r, mu, ml, a1l, a2l, mr, a1r, a2r)
+            equilibrium[j, i] = eq
+        l_open[j, i] = np.nan
+        if not (eq or every_point):
+            continue
         left = finger_polyline(0, a1l, a2l, l1, l2, w)
         right = finger_polyline(1, a1r, a2r, l1, l2, w)
         inside = part_contained(x, y, left, right)
@@ -113,12 +122,9 @@ def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
         contained[j, i] = inside
         l_open[j, i] = opening
         crossed[j, i] = fingers_cross(left, right)
-        if c == REACHED:
-            eq = part_in_equilibrium(scratch, x, y, w, r, mu, ml, a1l, a2l, mr, a1r, a2r)
-            equilibrium[j, i] = eq
-            if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
-                caged[j, i] = True
-                caging_score[j, i] = 1.0 - opening / (2.0 * r)
+        if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
+            caged[j, i] = True
+            caging_score[j, i] = 1.0 - opening / (2.0 * r)
 
 
 @njit(cache=True, parallel=True)
@@ -129,17 +135,17 @@ def map_outcomes(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
         scratch = np.empty(16)  # per row, not per point
         outcome_row(j, xs, ys[j], w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
                     mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                    crossed, caged, caging_score, scratch)
+                    crossed, caged, caging_score, scratch, True)
 
 
 @njit(cache=True)
 def map_outcomes_serial(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
                         mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained,
-                        l_open, crossed, caged, caging_score, scratch):
+                        l_open, crossed, caged, caging_score, scratch, every_point):
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
                     mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                    crossed, caged, caging_score, scratch)
+                    crossed, caged, caging_score, scratch, every_point)
 
 
 # ---------------------------------------------------------------------------------------------
