@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .kernels.field import count_summary, finger_field, map_outcomes, trajectory_ends
+from .kernels.field import (count_summary, finger_field, map_outcomes, new_finger_arrays,
+                            new_outcome_arrays, new_trajectory_arrays, trajectory_ends)
 from .model import (GRID_TOL, INFEASIBLE, MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects,
                     Grid, Limits, ModelInputError, Part, validate_inputs)
 
@@ -132,12 +133,7 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     th2min, th2max = limits.theta2_min, limits.theta2_max
     started = time.perf_counter()
 
-    mode = np.empty((2, ny, nx), dtype=np.int8)
-    t1 = np.empty((2, ny, nx))
-    t2 = np.empty((2, ny, nx))
-    k1 = np.empty((2, ny, nx))
-    k2 = np.empty((2, ny, nx))
-    overlap = np.empty((2, ny, nx), dtype=np.bool_)
+    mode, t1, t2, k1, k2, overlap = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
     for side, dxs in ((0, dx_left), (1, dx_right)):
         finger_field(dxs, g.y, design.l1, design.l2, design.r1, design.r2, part.r, mu, th2min,
@@ -145,20 +141,12 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
                      t2[side], k1[side], k2[side], overlap[side])
     solved = time.perf_counter()
 
-    energy = np.empty((ny, nx))
-    point_class = np.empty((ny, nx), dtype=np.int8)
-    equilibrium = np.empty((ny, nx), dtype=np.bool_)
-    contained = np.empty((ny, nx), dtype=np.bool_)
-    l_open = np.empty((ny, nx))
-    crossed = np.empty((ny, nx), dtype=np.bool_)
-    caged = np.empty((ny, nx), dtype=np.bool_)
-    caging_score = np.empty((ny, nx))
+    (energy, point_class, equilibrium, contained, l_open, crossed, caged,
+     caging_score) = new_outcome_arrays(ny, nx)
     map_outcomes(g.x, g.y, design.w, design.l1, design.l2, design.r1, design.r2, part.r, mu,
                  command.f_left, command.f_right, th2min, mode, t1, t2, k1, k2, energy,
                  point_class, equilibrium, contained, l_open, crossed, caged, caging_score)
-    end_state = np.empty((ny, nx), dtype=np.int8)
-    end_index = np.empty((ny, nx), dtype=np.int64)
-    stack = np.empty(ny * nx, dtype=np.int64)
+    end_state, end_index, stack = new_trajectory_arrays(ny, nx)
     Lambda = trajectory_ends(energy, point_class, equilibrium, caged, caging_score, g.h,
                              end_state, end_index, stack)
     finished = time.perf_counter()

@@ -9,7 +9,8 @@ direct computation uses, so the summaries are bitwise identical to `compute_map`
 import numpy as np
 from numba import njit, prange
 
-from .field import count_summary, finger_field_serial, map_outcomes_serial, trajectory_ends
+from .field import (count_summary, finger_field_serial, map_outcomes_serial, new_finger_arrays,
+                    new_outcome_arrays, new_trajectory_arrays, trajectory_ends)
 
 
 @njit(cache=True)
@@ -18,21 +19,13 @@ def summarize_filled_map(xs, ys, h, w, l1, l2, r1, r2, r, mu, f_left, f_right, t
     """Outcomes, trajectories and the summary row `out` of a map whose fingers are solved."""
     ny = ys.shape[0]
     nx = xs.shape[0]
-    energy = np.empty((ny, nx))
-    point_class = np.empty((ny, nx), dtype=np.int8)
-    equilibrium = np.empty((ny, nx), dtype=np.bool_)
-    contained = np.empty((ny, nx), dtype=np.bool_)
-    l_open = np.empty((ny, nx))
-    crossed = np.empty((ny, nx), dtype=np.bool_)
-    caged = np.empty((ny, nx), dtype=np.bool_)
-    caging_score = np.empty((ny, nx))
+    (energy, point_class, equilibrium, contained, l_open, crossed, caged,
+     caging_score) = new_outcome_arrays(ny, nx)
     scratch = np.empty(16)
     map_outcomes_serial(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min, mode,
                         t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
                         crossed, caged, caging_score, scratch, False)  # summaries only
-    end_state = np.empty((ny, nx), dtype=np.int8)
-    end_index = np.empty((ny, nx), dtype=np.int64)
-    stack = np.empty(ny * nx, dtype=np.int64)
+    end_state, end_index, stack = new_trajectory_arrays(ny, nx)
     score_sum = trajectory_ends(energy, point_class, equilibrium, caged, caging_score, h,
                                 end_state, end_index, stack)
     count_summary(point_class, end_state, equilibrium, caged, crossed, overlap, score_sum, h,
@@ -59,41 +52,26 @@ def summarize_cell(l1, l2, r1, r2, r, mu, ws, steps, ncols, ny, h, f_left, f_rig
     ys = np.empty(ny)
     for j in range(ny):
         ys[j] = r + j * h
-    f_mode = np.empty((ny, nm), dtype=np.int8)
-    f_t1 = np.empty((ny, nm))
-    f_t2 = np.empty((ny, nm))
-    f_k1 = np.empty((ny, nm))
-    f_k2 = np.empty((ny, nm))
-    f_overlap = np.empty((ny, nm), dtype=np.bool_)
+    f_mode, f_t1, f_t2, f_k1, f_k2, f_overlap = new_finger_arrays(1, ny, nm)
     finger_field_serial(dxs, ys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol,
-                        f_mode, f_t1, f_t2, f_k1, f_k2, f_overlap)
+                        f_mode[0], f_t1[0], f_t2[0], f_k1[0], f_k2[0], f_overlap[0])
     for k in range(ws.shape[0]):
         nx = 2 * ncols[k] + 1
         xs = np.empty(nx)
-        mode = np.empty((2, ny, nx), dtype=np.int8)
-        t1 = np.empty((2, ny, nx))
-        t2 = np.empty((2, ny, nx))
-        k1 = np.empty((2, ny, nx))
-        k2 = np.empty((2, ny, nx))
-        overlap = np.empty((2, ny, nx), dtype=np.bool_)
+        mode, t1, t2, k1, k2, overlap = new_finger_arrays(2, ny, nx)
         for c in range(nx):
             i = c - ncols[k]
             xs[c] = i * h
             left = -i - steps[k] - m_lo   # mirror
             right = i - steps[k] - m_lo   # shift
             for j in range(ny):
-                mode[0, j, c] = f_mode[j, left]
-                t1[0, j, c] = f_t1[j, left]
-                t2[0, j, c] = f_t2[j, left]
-                k1[0, j, c] = f_k1[j, left]
-                k2[0, j, c] = f_k2[j, left]
-                overlap[0, j, c] = f_overlap[j, left]
-                mode[1, j, c] = f_mode[j, right]
-                t1[1, j, c] = f_t1[j, right]
-                t2[1, j, c] = f_t2[j, right]
-                k1[1, j, c] = f_k1[j, right]
-                k2[1, j, c] = f_k2[j, right]
-                overlap[1, j, c] = f_overlap[j, right]
+                for side, src in ((0, left), (1, right)):
+                    mode[side, j, c] = f_mode[0, j, src]
+                    t1[side, j, c] = f_t1[0, j, src]
+                    t2[side, j, c] = f_t2[0, j, src]
+                    k1[side, j, c] = f_k1[0, j, src]
+                    k2[side, j, c] = f_k2[0, j, src]
+                    overlap[side, j, c] = f_overlap[0, j, src]
         summarize_filled_map(xs, ys, h, ws[k], l1, l2, r1, r2, r, mu, f_left, f_right,
                              theta2_min, mode, t1, t2, k1, k2, overlap, out[k])
 
@@ -114,12 +92,7 @@ def summarize_direct_map(l1, l2, r1, r2, r, mu, w, dx_left, dx_right, xs, ys, h,
     """One map with each finger solved at its own offsets (palm half-width off the grid)."""
     ny = ys.shape[0]
     nx = xs.shape[0]
-    mode = np.empty((2, ny, nx), dtype=np.int8)
-    t1 = np.empty((2, ny, nx))
-    t2 = np.empty((2, ny, nx))
-    k1 = np.empty((2, ny, nx))
-    k2 = np.empty((2, ny, nx))
-    overlap = np.empty((2, ny, nx), dtype=np.bool_)
+    mode, t1, t2, k1, k2, overlap = new_finger_arrays(2, ny, nx)
     finger_field_serial(dx_left, ys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step,
                         root_tol, mode[0], t1[0], t2[0], k1[0], k2[0], overlap[0])
     finger_field_serial(dx_right, ys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step,

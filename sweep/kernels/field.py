@@ -17,6 +17,33 @@ from .part import finger_polyline, fingers_cross, mouth_opening, part_contained,
     part_in_equilibrium
 
 # ---------------------------------------------------------------------------------------------
+# Working arrays of a map (one place for their shapes and types)
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def new_finger_arrays(n_fingers, ny, nx):
+    """(mode, t1, t2, k1, k2, tip_overlap) on (finger, y, x)."""
+    shape = (n_fingers, ny, nx)
+    return (np.empty(shape, dtype=np.int8), np.empty(shape), np.empty(shape), np.empty(shape),
+            np.empty(shape), np.empty(shape, dtype=np.bool_))
+
+
+@njit(cache=True)
+def new_outcome_arrays(ny, nx):
+    """(energy, point_class, equilibrium, contained, l_open, crossed, caged, caging_score)."""
+    shape = (ny, nx)
+    return (np.empty(shape), np.empty(shape, dtype=np.int8), np.empty(shape, dtype=np.bool_),
+            np.empty(shape, dtype=np.bool_), np.empty(shape), np.empty(shape, dtype=np.bool_),
+            np.empty(shape, dtype=np.bool_), np.empty(shape))
+
+
+@njit(cache=True)
+def new_trajectory_arrays(ny, nx):
+    """(end_state, end_index, stack) for trajectory_ends."""
+    return (np.empty((ny, nx), dtype=np.int8), np.empty((ny, nx), dtype=np.int64),
+            np.empty(ny * nx, dtype=np.int64))
+
+
+# ---------------------------------------------------------------------------------------------
 # Finger fields
 # ---------------------------------------------------------------------------------------------
 
