@@ -17,8 +17,9 @@ from .kernels.field import (count_summary, finger_field, map_outcomes, new_finge
 from .model import (GRID_TOL, INFEASIBLE, MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects,
                     Grid, Limits, ModelInputError, Part, validate_inputs)
 
-# Bytes held per grid point while a map is computed (finger arrays x2, outcomes, trajectories).
-BYTES_PER_POINT = 2 * (1 + 4 * 8 + 1) + 8 + 1 + 1 + 1 + 8 + 1 + 1 + 8 + 1 + 8 + 8 + 8
+# Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
+# outcomes (3 floats, 5 flags/codes), trajectories (code, 2 int64).
+BYTES_PER_POINT = 2 * (1 + 4 * 8 + 1) + (3 * 8 + 5) + (1 + 2 * 8)
 MAX_POINTS_DEFAULT = 200_000_000
 
 
@@ -86,13 +87,25 @@ def finger_offsets(i: np.ndarray, w: float, h: float) -> tuple[np.ndarray, np.nd
     return -(i * h) - 0.5 * w, i * h - 0.5 * w
 
 
+def available_memory() -> int:
+    """Bytes of memory available to a new computation (MemAvailable on Linux)."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 8 << 30
+
+
 def check_memory(n_points: int, what: str = "the grid") -> None:
     """Refuse a grid whose working arrays would not fit in memory."""
     need = n_points * BYTES_PER_POINT
-    try:
-        available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        available = 8 << 30
+    available = available_memory()
     if n_points > MAX_POINTS_DEFAULT or need > 0.5 * available:
         raise ModelInputError(
             f"{what} has {n_points:,} points and needs about {need / 2**30:.1f} GiB; "

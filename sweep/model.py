@@ -150,10 +150,7 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         v = getattr(command, name)
         if not (math.isfinite(v) and v >= 0):
             raise ModelInputError(f"{name} must be >= 0, got {v!r}")
-    if design.r1 == design.r2:
-        # MODEL 5.4: the kernels stay finite (they never divide by 1 - R), so R = 1 is handled
-        # explicitly: every reconfiguration slides to the tip. Nothing to refuse.
-        pass
+    # r1 == r2 (R = 1) is accepted: the kernels never divide by 1 - R (MODEL 5.4, model-notes D8).
     if limits.theta1_min_deg != 0.0 or limits.theta1_max_deg != 180.0:
         raise ModelInputError("theta1 limits other than [0, 180] deg are not supported")
     if not (-90.0 < limits.theta2_min_deg <= 0.0):
