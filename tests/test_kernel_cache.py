@@ -10,7 +10,14 @@ import sweep.kernels as kernels
 
 
 def test_cache_directory_is_keyed_by_the_kernel_sources():
-    assert numba.config.CACHE_DIR.endswith(f"kernels-{kernels._kernel_source_digest()}")
+    from sweep.kernels.cells import summarize_cells_shared
+    from sweep.kernels.field import finger_field
+
+    key = f"kernels-{kernels._kernel_source_digest()}"
+    for dispatcher in (finger_field, summarize_cells_shared):
+        assert key in dispatcher._cache._cache_path
+    # the user's own Numba setting is left as it was
+    assert key not in (numba.config.CACHE_DIR or "")
 
 
 def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):

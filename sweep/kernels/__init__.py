@@ -34,5 +34,11 @@ def _cache_root() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "sweep"
 
 
-# Must run before any @njit(cache=True) below is decorated: the locator is chosen then.
+# Numba picks a function's cache location when it is decorated, so set the directory, decorate
+# every kernel (import the modules), then restore the setting for the user's own Numba code.
+_user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
+try:
+    from . import cells, field, finger, geometry, part  # noqa: E402,F401
+finally:
+    numba.config.CACHE_DIR = _user_cache_dir
