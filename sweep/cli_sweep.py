@@ -263,10 +263,9 @@ def cmd_top(results, r, mu, n, by, ascending, command):
             raise SweepInputError(f"--{name}: {value:g} is not in the store (values: "
                                   f"{', '.join(f'{v:g}' for v in coord)})")
         chosen[name] = [int(hits[0])]
-    if "command" in view.dims:
-        ncmd = view.coords["command"].size
-        if not 0 <= command < ncmd:
-            raise SweepInputError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
+    ncmd = view.coords["command"].size if "command" in view.dims else 1
+    if not 0 <= command < ncmd:
+        raise SweepInputError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
     for k, (ri, mui) in enumerate((a, b) for a in chosen["r"] for b in chosen["mu"]):
         if k:
             click.echo("")

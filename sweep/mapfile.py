@@ -63,8 +63,11 @@ def map_root_attrs(m: EnergyMap) -> dict:
     return attrs
 
 
-def write_map(path: str | Path, m: EnergyMap) -> Path:
-    """Write `m` to `path` atomically; xarray.open_dataset(path, engine="h5netcdf") opens it."""
+def write_map(path: str | Path, m: EnergyMap, extra_attrs: dict | None = None) -> Path:
+    """Write `m` to `path` atomically; xarray.open_dataset(path, engine="h5netcdf") opens it.
+
+    `extra_attrs` are added to the root attributes (e.g. the sweep's config_hash).
+    """
     path = Path(path)
     with atomic_file(path) as f:
         write_coordinate(f, "x", m.x, dict(long_name="part centre x (palm centre origin)",
@@ -76,7 +79,7 @@ def write_map(path: str | Path, m: EnergyMap) -> Path:
             write_variable(f, name, m.fields[name], ("y", "x"), VARIABLE_ATTRS[name])
         for name in MAP_FIELDS_FINGER:
             write_variable(f, name, m.fields[name], ("finger", "y", "x"), VARIABLE_ATTRS[name])
-        set_root_attrs(f, map_root_attrs(m))
+        set_root_attrs(f, {**map_root_attrs(m), **(extra_attrs or {})})
     return path
 
 

@@ -48,7 +48,14 @@ def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
     h = grid.h
     if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
         raise ModelInputError(f"h must be a positive number, got {h!r}")
+    for name, window in (("xlim", grid.xlim), ("ylim", grid.ylim)):
+        if window is not None and not all(math.isfinite(v) for v in window):
+            raise ModelInputError(f"{name} must be finite, got {window!r}")
     X, Y = reach(design, part)
+    extent = max(abs(v) for v in (X, Y, *(grid.xlim or ()), *(grid.ylim or ())))
+    if not math.isfinite(extent / h) or extent / h > 1e9:
+        raise ModelInputError(f"h = {h!r} is too fine for a window of extent {extent:g}: "
+                              "that grid does not fit in memory")
     if grid.xlim is None:
         n = math.floor(X / h + GRID_TOL)
         i0, i1 = -n, n
@@ -67,6 +74,7 @@ def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
         j1 = math.floor((ymax - part.r) / h + GRID_TOL)
     if i1 < i0 or j1 < j0:
         raise ModelInputError(f"the grid window holds no grid point at h = {h}")
+    check_memory((i1 - i0 + 1) * (j1 - j0 + 1))  # before allocating anything
     i = np.arange(i0, i1 + 1, dtype=np.int64)
     j = np.arange(j0, j1 + 1, dtype=np.int64)
     return MapGrid(h=h, i=i, j=j, x=i * h, y=part.r + j * h,

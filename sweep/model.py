@@ -126,6 +126,12 @@ class Effects:
 
 IMPLEMENTED_EFFECTS = frozenset({"friction"})
 
+# Accepted accuracy settings. A smaller step would take more than pi / 1e-6 = 3e6 path
+# evaluations per point (a practical hang); a root tolerance below 1e-15 is below float
+# resolution on [0, pi].
+RECONFIG_STEP_RANGE = (1e-6, 0.5)
+ROOT_TOL_RANGE = (1e-15, 0.1)
+
 
 class ModelInputError(ValueError):
     """Bad user input, caught once at the edge (CLI exit code 2)."""
@@ -150,6 +156,8 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         v = getattr(command, name)
         if not (math.isfinite(v) and v >= 0):
             raise ModelInputError(f"{name} must be >= 0, got {v!r}")
+    if command.f_left == 0 and command.f_right == 0:
+        raise ModelInputError("f_left and f_right are both 0: nothing closes the fingers")
     # r1 == r2 (R = 1) is accepted: the kernels never divide by 1 - R (MODEL 5.4, model-notes D8).
     if limits.theta1_min_deg != 0.0 or limits.theta1_max_deg != 180.0:
         raise ModelInputError("theta1 limits other than [0, 180] deg are not supported")
@@ -159,10 +167,11 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
     if not (limits.theta2_min_deg < limits.theta2_max_deg <= 180.0):
         raise ModelInputError(
             f"theta2_max must be in (theta2_min, 180] deg, got {limits.theta2_max_deg!r}")
-    positive("reconfig_step", accuracy.reconfig_step)
-    positive("root_tol", accuracy.root_tol)
-    if accuracy.reconfig_step > 0.5:
-        raise ModelInputError(f"reconfig_step must be <= 0.5 rad, got {accuracy.reconfig_step!r}")
+    for name, (low, high) in (("reconfig_step", RECONFIG_STEP_RANGE),
+                              ("root_tol", ROOT_TOL_RANGE)):
+        value = getattr(accuracy, name)
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ModelInputError(f"{name} must be in [{low:g}, {high:g}] rad, got {value!r}")
     if accuracy.trajectory != "discrete":
         raise ModelInputError(f"trajectory method {accuracy.trajectory!r} is not implemented "
                               "(only 'discrete')")

@@ -330,7 +330,8 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
 # Full maps for a named subset (outputs.save_maps)
 # ---------------------------------------------------------------------------------------------
 def map_file_name(point: dict, n_commands: int) -> str:
-    name = "map_" + "_".join(f"{k}={point[k]:g}" for k in ("l1", "l2", "r1", "r2", "w", "r", "mu"))
+    name = "map_" + "_".join(f"{k}={point[k]:.12g}"
+                             for k in ("l1", "l2", "r1", "r2", "w", "r", "mu"))
     if n_commands > 1:
         name += f"_command={point['command']}"
     return name + ".h5"
@@ -346,7 +347,8 @@ def maps_available() -> bool:
 
 def save_maps(scene: Scene, start: int, stop: int, directory: Path) -> list[str]:
     """Compute and write the full map of every `outputs.save_maps` entry whose item lies in
-    [start, stop); existing files are kept (resume). Returns the file names."""
+    [start, stop); an existing file is kept (resume) only if it was written for this config
+    (its `config_hash` attribute). Returns the file names."""
     wanted = [p for p in scene.save_maps if start <= scene.item_of(p) < stop]
     if not wanted:
         return []
@@ -361,12 +363,26 @@ def save_maps(scene: Scene, start: int, stop: int, directory: Path) -> list[str]
     for p in wanted:
         name = map_file_name(p, len(scene.commands))
         path = Path(directory) / name
-        if not path.exists():
+        if not _saved_for(path, scene.config_hash):
             m = maps.compute_map(
                 Design(**{k: p[k] for k in ("l1", "l2", "r1", "r2", "w")}),
                 Part(r=p["r"], mu=p["mu"]), scene.commands[p["command"]], Grid(h=scene.h),
                 scene.limits, scene.accuracy, scene.effects)
             path.parent.mkdir(parents=True, exist_ok=True)
-            mapfile.write_map(path, m)
+            mapfile.write_map(path, m, {"config_hash": scene.config_hash})
         names.append(name)
     return names
+
+
+def _saved_for(path: Path, config_hash: str) -> bool:
+    """The map file exists, is readable and was written for this config."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            stored = f.attrs.get("config_hash", "")
+    except (OSError, KeyError):
+        return False
+    if isinstance(stored, bytes):
+        stored = stored.decode()
+    return stored == config_hash

@@ -24,6 +24,7 @@ import hashlib
 import json
 import math
 import re
+import sys
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
@@ -32,8 +33,8 @@ import numpy as np
 import yaml
 
 from . import __version__
-from .model import (GRID_TOL, IMPLEMENTED_EFFECTS, Accuracy, Command, Design, Effects, Limits,
-                    ModelInputError, Part, validate_inputs)
+from .model import (GRID_TOL, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
+                    Command, Design, Effects, Limits, ModelInputError, Part, validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -203,6 +204,8 @@ def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     from .maps import reach
 
     X, Y = reach(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0))
+    if not (math.isfinite(X / h) and math.isfinite((Y - r) / h)):
+        return sys.maxsize  # too many to count: the memory check refuses it
     N = math.floor(X / h + GRID_TOL)
     M = math.floor((Y - r) / h + GRID_TOL)
     return (2 * N + 1) * (M + 1)
@@ -297,11 +300,12 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
         reconfig_step=_number(acc.get("reconfig_step", 0.01), "accuracy.reconfig_step"),
         root_tol=_number(acc.get("root_tol", 1e-12), "accuracy.root_tol"),
         trajectory=acc.get("trajectory", "discrete"))
-    if not 0 < accuracy.reconfig_step <= 0.5:
-        raise SceneError(f"accuracy.reconfig_step: must be in (0, 0.5] rad, "
-                         f"got {accuracy.reconfig_step!r}")
-    if not accuracy.root_tol > 0:
-        raise SceneError(f"accuracy.root_tol: must be > 0, got {accuracy.root_tol!r}")
+    for key, (low, high) in (("reconfig_step", RECONFIG_STEP_RANGE),
+                             ("root_tol", ROOT_TOL_RANGE)):
+        value = getattr(accuracy, key)
+        if not (math.isfinite(value) and low <= value <= high):
+            raise SceneError(f"accuracy.{key}: must be in [{low:g}, {high:g}] rad, "
+                             f"got {value!r}")
     if accuracy.trajectory not in TRAJECTORY_METHODS:
         raise SceneError(f"accuracy.trajectory: {accuracy.trajectory!r} is not implemented "
                          f"(valid: {', '.join(TRAJECTORY_METHODS)})")

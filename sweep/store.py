@@ -55,7 +55,8 @@ FIELD_ATTRS = {
     "n_reached": dict(long_name="grid points of class reached (the set P_j)"),
     "n_equilibrium": dict(long_name="grid points where the part is in equilibrium"),
     "n_vertex": dict(long_name="grid points of class vertex (a finger's vertex strikes the part)"),
-    "n_tip_overlap": dict(long_name="reached grid points flagged tip_overlap"),
+    "n_tip_overlap": dict(long_name="feasible grid points where a finger is flagged tip_overlap "
+                               "(its distal link passed through the part, MODEL 4.3)"),
     "n_caged_crossed": dict(long_name="caged grid points whose fingers cross each other"),
     "n_points": dict(long_name="grid points of the map (whole-reach grid of the design)"),
     "n_infeasible": dict(long_name="grid points of class infeasible (part overlaps palm or "

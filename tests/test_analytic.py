@@ -233,3 +233,19 @@ def test_a_grazing_vertex_does_not_strike():
     # the vertex touches the disc at one angle only (c = 1)
     assert vertex_entry(1.5, 0.0, 1.0, 0.0, 0.5) == math.inf
     assert vertex_entry(1.4, 0.0, 1.0, 0.0, 0.5) < math.inf
+
+
+def test_reconfiguration_terminates_for_any_step():
+    """The path loop is bounded in floating point and always ends on an event (the last node is
+    t1 = 0), even for a step the edge would refuse."""
+    from sweep.kernels.finger import reconfigure
+    l1, l2, r, t1, k2 = 2.0, 1.6, 0.4, 1.2, 0.1
+    dx, dy = on_distal(t1, TH2MIN, k2, l1, r)
+    coarse = reconfigure(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MAX, 0.01, 1e-12)
+    tiny_step = reconfigure(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MAX, 1e-300, 1e-12)
+    assert all(math.isfinite(v) for v in tiny_step[1:])
+    assert coarse[0] == DISTAL_ONLY and 0 < coarse[1] < t1
+    # a step below float resolution collapses the path to one bracket [0, t1]; the stick region
+    # of this path (around t1 = 1.06) does not reach t1 = 0, so the bracket ends on the
+    # proximal stop: defined, but not the stepped answer, which is why the edge refuses it
+    assert tiny_step[0] == DISTAL_ONLY and tiny_step[1] == 0.0

@@ -414,6 +414,42 @@ def test_saved_maps_agree_with_the_summaries(cli, tmp_path):
         assert f.attrs["n_caged"] == view.variables["n_caged"][idx]
 
 
+def test_saved_maps_of_another_config_are_recomputed(cli, tmp_path):
+    """A rerun with --overwrite and another grid must not keep the old config's map file."""
+    point = dict(l1=1.2, l2=0.8, r1=0.12, r2=0.1, w=0.5, r=0.4, mu=0.7)
+    out = tmp_path / "a.h5"
+    for h in (0.2, 0.1):
+        cfg = write_config(tmp_path / f"h{h}.yaml", tiny(outputs={"save_maps": [point]},
+                                                         designs={"l1": [1.2]}, grid={"h": h}))
+        res = invoke(cli, "run", cfg, "--out", out, "--no-progress", "--overwrite")
+        assert res.exit_code == 0, res.output
+    (saved,) = (tmp_path / "a.h5.maps").glob("*.h5")
+    view = read_store(out)
+    idx = tuple(int(np.flatnonzero(view.coords[d] == point[d])[0]) for d in view.dims)
+    with h5py.File(saved, "r") as f:
+        assert f.attrs["h"] == 0.1
+        assert f.attrs["Lambda"] == view.variables["Lambda"][idx]
+
+
+def test_top_refuses_a_command_index_the_store_does_not_have(cli, reference):
+    _, path = reference
+    assert invoke(cli, "top", path, "--r", 0.4, "--mu", 0.7, "--command", 3).exit_code == 2
+
+
+@pytest.mark.parametrize("changes, key", [
+    (dict(accuracy={"reconfig_step": 1e-9}), "accuracy.reconfig_step"),
+    (dict(accuracy={"root_tol": 0.0}), "accuracy.root_tol"),
+    (dict(grid={"h": 1e-320}), "grid.h"),
+    (dict(designs={"l1": [1e308]}), "grid"),
+])
+def test_extreme_configs_fail_at_the_edge(cli, tmp_path, changes, key):
+    cfg = write_config(tmp_path / "bad.yaml", tiny(**changes))
+    res = invoke(cli, "run", cfg, "--out", tmp_path / "bad.h5", "--no-progress")
+    assert res.exit_code == 2, res.output
+    assert key in res.output
+    assert not (tmp_path / "bad.h5").exists()
+
+
 # ---------------------------------------------------------------------------------------------
 KILL_CFG = dict(
     name="killme",

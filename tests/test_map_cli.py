@@ -86,6 +86,12 @@ def run_cli(args):
     (["--h", "1e-5"], "GiB"),           # a grid too large for memory
     (["--theta2-min", "5"], "theta2_min"),
     (["--xlim", "1", "-1"], "xlim"),
+    (["--xlim", "-inf", "inf"], "xlim"),
+    (["--h", "1e-300"], "too fine"),
+    (["--ylim", "0", "1e300"], "too fine"),
+    (["--reconfig-step", "1e-17"], "reconfig_step"),
+    (["--root-tol", "0"], "root_tol"),
+    (["--f-left", "0", "--f-right", "0"], "both 0"),
 ])
 def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, override, key):
     args = dict(zip(REFERENCE[::2], REFERENCE[1::2]))

@@ -23,6 +23,7 @@ DISTAL_ON_PROXIMAL_STOP = 7    # distal-only contact with the proximal folded at
 
 # Events along the reconfiguration path (bit mask), in tie-break priority order (model-notes D4).
 STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
+MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e-6 rad
 
 
 # ---------------------------------------------------------------------------------------------
@@ -226,11 +227,15 @@ def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_
     hi = t1_start
     lo = t1_start
     events = 0
-    n_max = int(math.ceil(t1_start / step)) + 1
+    # Bounded in floating point (no int overflow for any step); the last node is t1 = 0, where the
+    # proximal stop always holds, so the loop always ends on an event.
+    n_max = int(min(math.ceil(t1_start / step), MAX_PATH_STEPS)) + 1
     for n in range(1, n_max + 1):
-        lo = max(t1_start - n * step, 0.0)
+        lo = t1_start - n * step
+        if lo <= 0.0 or n == n_max:
+            lo = 0.0
         events = path_event_mask_at(lo, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
-        if events != 0 or lo == 0.0:
+        if events != 0:
             break
         hi = lo
     best_t1 = -1.0
