@@ -32,6 +32,18 @@ def summarize_filled_map(xs, ys, h, w, l1, l2, r1, r2, r, mu, f_left, f_right, t
                   out)
 
 
+@njit(cache=True, inline="always")
+def gather_point(f_mode, f_t1, f_t2, f_k1, f_k2, f_overlap, j, src, mode, t1, t2, k1, k2,
+                 overlap, side, c):
+    """Copy field column src of row j into finger `side`, world column c of a map."""
+    mode[side, j, c] = f_mode[0, j, src]
+    t1[side, j, c] = f_t1[0, j, src]
+    t2[side, j, c] = f_t2[0, j, src]
+    k1[side, j, c] = f_k1[0, j, src]
+    k2[side, j, c] = f_k2[0, j, src]
+    overlap[side, j, c] = f_overlap[0, j, src]
+
+
 @njit(cache=True)
 def summarize_cell(l1, l2, r1, r2, r, mu, ws, steps, ncols, ny, h, f_left, f_right,
                    theta2_min, theta2_max, step, root_tol, out):
@@ -65,13 +77,10 @@ def summarize_cell(l1, l2, r1, r2, r, mu, ws, steps, ncols, ny, h, f_left, f_rig
             left = -i - steps[k] - m_lo   # mirror
             right = i - steps[k] - m_lo   # shift
             for j in range(ny):
-                for side, src in ((0, left), (1, right)):
-                    mode[side, j, c] = f_mode[0, j, src]
-                    t1[side, j, c] = f_t1[0, j, src]
-                    t2[side, j, c] = f_t2[0, j, src]
-                    k1[side, j, c] = f_k1[0, j, src]
-                    k2[side, j, c] = f_k2[0, j, src]
-                    overlap[side, j, c] = f_overlap[0, j, src]
+                gather_point(f_mode, f_t1, f_t2, f_k1, f_k2, f_overlap, j, left, mode, t1, t2,
+                             k1, k2, overlap, 0, c)
+                gather_point(f_mode, f_t1, f_t2, f_k1, f_k2, f_overlap, j, right, mode, t1, t2,
+                             k1, k2, overlap, 1, c)
         summarize_filled_map(xs, ys, h, ws[k], l1, l2, r1, r2, r, mu, f_left, f_right,
                              theta2_min, mode, t1, t2, k1, k2, overlap, out[k])
 
