@@ -44,7 +44,11 @@ def reach(design: Design, part: Part) -> tuple[float, float]:
     return (0.5 * design.w + design.l1 + design.l2 + part.r, part.r + design.l1 + design.l2)
 
 
-def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
+def grid_index_bounds(design: Design, part: Part, grid: Grid) -> tuple[int, int, int, int]:
+    """Integer bounds (i0, i1, j0, j1) of a map's grid, x = i h, y = r + j h (MODEL 8, D1).
+
+    Allocates nothing, so it can size a grid before deciding whether it fits in memory.
+    """
     h = grid.h
     if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
         raise ModelInputError(f"h must be a positive number, got {h!r}")
@@ -74,7 +78,14 @@ def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
         j1 = math.floor((ymax - part.r) / h + GRID_TOL)
     if i1 < i0 or j1 < j0:
         raise ModelInputError(f"the grid window holds no grid point at h = {h}")
-    check_memory((i1 - i0 + 1) * (j1 - j0 + 1))  # before allocating anything
+    return i0, i1, j0, j1
+
+
+def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
+    """The grid of one map, checked to fit in memory before anything is allocated."""
+    i0, i1, j0, j1 = grid_index_bounds(design, part, grid)
+    check_memory((i1 - i0 + 1) * (j1 - j0 + 1))
+    h = grid.h
     i = np.arange(i0, i1 + 1, dtype=np.int64)
     j = np.arange(j0, j1 + 1, dtype=np.int64)
     return MapGrid(h=h, i=i, j=j, x=i * h, y=part.r + j * h,

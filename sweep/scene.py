@@ -33,7 +33,7 @@ import numpy as np
 import yaml
 
 from . import __version__
-from .model import (GRID_TOL, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
+from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
                     Command, Design, Effects, Limits, ModelInputError, Part, validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
@@ -201,14 +201,14 @@ class Scene:
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     """Points of the default whole-reach grid of one map (MODEL 8; as `sweep.maps.map_grid`)."""
-    from .maps import reach
+    from .maps import grid_index_bounds
+    from .model import Grid
 
-    X, Y = reach(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0))
-    if not (math.isfinite(X / h) and math.isfinite((Y - r) / h)):
-        return sys.maxsize  # too many to count: the memory check refuses it
-    N = math.floor(X / h + GRID_TOL)
-    M = math.floor((Y - r) / h + GRID_TOL)
-    return (2 * N + 1) * (M + 1)
+    try:
+        i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
+    except ModelInputError:
+        return sys.maxsize  # too fine to count: the memory check refuses it
+    return (i1 - i0 + 1) * (j1 - j0 + 1)
 
 
 def _index_of(values, v) -> int:
