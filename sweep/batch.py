@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from .kernels.cells import summarize_cells_shared, summarize_direct_map
-from .maps import finger_offsets, map_grid, palm_half_width_steps
+from .maps import finger_offsets, grid_index_bounds, map_grid, palm_half_width_steps
 from .model import (MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects, Grid, Limits,
                     ModelInputError, Part, validate_inputs)
 
@@ -37,20 +37,22 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     out = np.zeros((cells.shape[0], widths.size, len(SUMMARY_FIELDS)))
     if cells.shape[0] == 0 or widths.size == 0:
         return out
-    grids = [[map_grid(Design(c[0], c[1], c[2], c[3], w), Part(c[4], c[5]), Grid(h=h))
-              for w in widths] for c in cells]
     steps = [palm_half_width_steps(w, h) for w in widths]
     th2min, th2max = limits.theta2_min, limits.theta2_max
     if all(s is not None for s in steps):
-        ncols = np.array([[(g.x.size - 1) // 2 for g in row] for row in grids], dtype=np.int64)
-        nys = np.array([row[0].y.size for row in grids], dtype=np.int64)
+        # whole-reach grids: columns -N..N, rows 0..M (sized without allocating them)
+        bounds = [[grid_index_bounds(Design(c[0], c[1], c[2], c[3], w), Part(c[4], c[5]),
+                                     Grid(h=h)) for w in widths] for c in cells]
+        ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
+        nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
                                command.f_left, command.f_right, th2min, th2max,
                                accuracy.reconfig_step, accuracy.root_tol, out)
         return out
-    for c, row in enumerate(grids):  # palm half-width off the grid: each map on its own
+    for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         l1, l2, r1, r2, r, mu = cells[c]
-        for k, (w, g) in enumerate(zip(widths, row)):
+        for k, w in enumerate(widths):
+            g = map_grid(Design(l1, l2, r1, r2, w), Part(r, mu), Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
             summarize_direct_map(l1, l2, r1, r2, r, mu, w, dx_left, dx_right, g.x, g.y, h,
                                  command.f_left, command.f_right, th2min, th2max,

@@ -13,8 +13,8 @@ from ..model import (EJECT, END_CAGED, END_EJECTION, END_NONE, END_STALLED, END_
                      FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX,
                      VERTEX_POINT)
 from .finger import OVERLAP, finger_energy, solve_finger
-from .part import finger_polyline, fingers_cross, mouth_opening, part_contained, \
-    part_in_equilibrium
+from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
+                   tip_clearance)
 
 # ---------------------------------------------------------------------------------------------
 # Working arrays of a map (one place for their shapes and types)
@@ -145,10 +145,11 @@ def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
         left = finger_polyline(0, a1l, a2l, l1, l2, w)
         right = finger_polyline(1, a1r, a2r, l1, l2, w)
         inside = part_contained(x, y, left, right)
-        opening = mouth_opening(left, right)
+        intersect = fingers_cross(left, right)
+        opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
         contained[j, i] = inside
         l_open[j, i] = opening
-        crossed[j, i] = fingers_cross(left, right)
+        crossed[j, i] = intersect
         if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
             caged[j, i] = True
             caging_score[j, i] = 1.0 - opening / (2.0 * r)

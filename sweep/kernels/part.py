@@ -185,6 +185,12 @@ def mouth_opening(left, right):
     fingers' polylines intersect."""
     if fingers_cross(left, right):
         return 0.0
+    return tip_clearance(left, right)
+
+
+@njit(cache=True)
+def tip_clearance(left, right):
+    """L_open of fingers known not to intersect: the least tip-to-tip and tip-to-finger distance."""
     jlx, jly, blx, bly, tlx, tly = left
     jrx, jry, brx, bry, trx, try_ = right
     opening = math.sqrt((tlx - trx) ** 2 + (tly - try_) ** 2)
