@@ -6,18 +6,21 @@ relative to its base, so all widths and both fingers are shifts/mirrors of one f
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from .kernels.cells import summarize_cells_shared, summarize_direct_map
-from .maps import finger_offsets, grid_index_bounds, map_grid, palm_half_width_steps
-from .model import (MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects, Grid, Limits,
-                    ModelInputError, Part, validate_inputs)
+from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
+from .kernels.records import Hand
+from .maps import (finger_offsets, grid_index_bounds, kernel_records, map_fields, map_grid,
+                   palm_half_width_steps, summary_attrs)
+from .model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
+from .schema import SUMMARY_FIELDS
 
-# Per-map summary variables, in storage order.
-SUMMARY_FIELDS = MAP_SUMMARY_FIELDS
 CELL_COLUMNS = ("l1", "l2", "r1", "r2", "r", "mu")
+
+
+def _cell_design_part(cell, w: float) -> tuple[Design, Part]:
+    l1, l2, r1, r2, r, mu = (float(v) for v in cell)
+    return Design(l1, l2, r1, r2, float(w)), Part(r, mu)
 
 
 def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: float,
@@ -38,34 +41,43 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     if cells.shape[0] == 0 or widths.size == 0:
         return out
     steps = [palm_half_width_steps(w, h) for w in widths]
+    _, solver = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy, effects)
     th2min, th2max = limits.theta2_min, limits.theta2_max
     if all(s is not None for s in steps):
         # whole-reach grids: columns -N..N, rows 0..M (sized without allocating them)
-        bounds = [[grid_index_bounds(Design(c[0], c[1], c[2], c[3], w), Part(c[4], c[5]),
-                                     Grid(h=h)) for w in widths] for c in cells]
+        bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
+                  for c in cells]
         ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
-                               command.f_left, command.f_right, th2min, th2max,
-                               accuracy.reconfig_step, accuracy.root_tol, out)
+                               command.f_left, command.f_right, th2min, th2max, solver, out)
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
-        l1, l2, r1, r2, r, mu = cells[c]
         for k, w in enumerate(widths):
-            g = map_grid(Design(l1, l2, r1, r2, w), Part(r, mu), Grid(h=h))
+            design, part = _cell_design_part(cells[c], w)
+            finger, _ = kernel_records(design, part, limits, accuracy, effects)
+            g = map_grid(design, part, Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
-            summarize_direct_map(l1, l2, r1, r2, r, mu, w, dx_left, dx_right, g.x, g.y, h,
-                                 command.f_left, command.f_right, th2min, th2max,
-                                 accuracy.reconfig_step, accuracy.root_tol, out[c, k])
+            summarize_direct_map(finger, solver, Hand(float(w), command.f_left, command.f_right,
+                                                      float(h)),
+                                 dx_left, dx_right, g.x, g.y, out[c, k])
     return out
 
 
-def validate_cells(cells: np.ndarray, widths: np.ndarray, command: Command, limits: Limits,
-                   accuracy: Accuracy, effects: Effects) -> None:
-    """Validate every design/part of a sweep once, up front (raises ModelInputError)."""
-    for c in np.asarray(cells).reshape(-1, len(CELL_COLUMNS)):
-        for w in np.asarray(widths).reshape(-1):
-            validate_inputs(Design(*map(float, c[:4]), float(w)), Part(float(c[4]), float(c[5])),
-                            command, limits, accuracy, effects)
-    if not all(math.isfinite(w) for w in np.asarray(widths).reshape(-1)):
-        raise ModelInputError("widths must be finite")
+def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
+                    accuracy: Accuracy, effects: Effects = Effects(),
+                    forces: bool = False) -> tuple[np.ndarray, np.ndarray, dict, dict]:
+    """The per-point fields of one map computed the way the sweep computes it (shared finger
+    field, mirrored and shifted): (x, y, fields, summary attrs), fields named as in
+    sweep.schema. The palm half-width must be a whole number of grid steps."""
+    design, part = _cell_design_part(cell, w)
+    step = palm_half_width_steps(float(w), h)
+    if step is None:
+        raise ModelInputError(f"w = {w} is not a whole number of grid steps 2h = {2 * h}")
+    finger, solver = kernel_records(design, part, limits, accuracy, effects)
+    _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+    xs, ys, fingers, outs, force_arrays, summary = cell_map(
+        finger, solver, float(w), step, i1, j1 + 1, float(h), float(command.f_left),
+        float(command.f_right), True, forces)
+    return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
+        summary_attrs(summary)

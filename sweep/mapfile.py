@@ -7,40 +7,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .h5 import (atomic_file, flag_attrs, provenance, set_root_attrs, write_coordinate,
-                 write_variable)
-from .maps import MAP_FIELDS_2D, MAP_FIELDS_FINGER, EnergyMap
-from .model import (END_STATE_MEANINGS, FINGER_MODE_MEANINGS, FINGER_NAMES,
-                    POINT_CLASS_MEANINGS)
-
-VARIABLE_ATTRS = {
-    "energy": dict(long_name="system potential energy V_left + V_right (MODEL 6)",
-                   units="tension x length (unitless)"),
-    "point_class": flag_attrs(POINT_CLASS_MEANINGS, "class of the grid point (MODEL 8)"),
-    "end_state": flag_attrs(END_STATE_MEANINGS,
-                            "end of the steepest-descent trajectory started here (MODEL 8)"),
-    "equilibrium": dict(long_name="part in force equilibrium (cone hull, MODEL 7); "
-                                  "computed for reached points only", units="1"),
-    "contained": dict(long_name="part centre inside J_L B_L T_L T_R B_R J_R (even-odd)",
-                      units="1"),
-    "l_open": dict(long_name="L_open: largest part that could escape between the fingers",
-                   units="length (unitless)"),
-    "caging_score": dict(long_name="caging score S = 1 - L_open/(2r) where caged, else 0",
-                         units="1"),
-    "finger_mode": dict(flag_attrs(FINGER_MODE_MEANINGS,
-                                   "contact mode the finger ends in (MODEL 4, 5)"),
-                        _FillValue=np.int8(-1), comment="-1 where the point is infeasible"),
-    "theta1": dict(long_name="proximal joint angle, finger's own (mirrored) frame",
-                   units="rad"),
-    "theta2": dict(long_name="distal joint angle, finger's own (mirrored) frame", units="rad"),
-    "k1": dict(long_name="contact distance from the proximal joint on the proximal link; "
-                         "0 without a proximal contact", units="length (unitless)"),
-    "k2": dict(long_name="contact distance from the distal joint on the distal link; "
-                         "0 without a distal contact", units="length (unitless)"),
-    "tip_overlap": dict(long_name="the distal link passed through the part on its way to its "
-                                  "limit (paper's answer kept, MODEL 4.3)", units="1"),
-}
-
+from .h5 import atomic_file, provenance, set_root_attrs, write_coordinate, write_variable
+from .maps import EnergyMap
+from .model import FINGER_NAMES
+from .schema import POINT_FIELDS
 
 def map_root_attrs(m: EnergyMap) -> dict:
     attrs = dict(
@@ -57,6 +27,8 @@ def map_root_attrs(m: EnergyMap) -> dict:
         effects_on=m.effects.names_on(),
         h=m.grid.h,
     )
+    if "forces" in m.outputs:  # the base outputs are implied (files written before outputs existed)
+        attrs["outputs_on"] = list(m.outputs)
     for key, value in m.attrs.items():
         attrs[key] = value
     attrs.update(provenance())
@@ -75,10 +47,9 @@ def write_map(path: str | Path, m: EnergyMap, extra_attrs: dict | None = None) -
         write_coordinate(f, "y", m.y, dict(long_name="part centre y (away from the palm)",
                                            units="length (unitless)", axis="Y"))
         write_coordinate(f, "finger", np.array(FINGER_NAMES), dict(long_name="finger"))
-        for name in MAP_FIELDS_2D:
-            write_variable(f, name, m.fields[name], ("y", "x"), VARIABLE_ATTRS[name])
-        for name in MAP_FIELDS_FINGER:
-            write_variable(f, name, m.fields[name], ("finger", "y", "x"), VARIABLE_ATTRS[name])
+        for fld in POINT_FIELDS:  # the schema's order; only the outputs computed
+            if fld.in_map_file and fld.name in m.fields:
+                write_variable(f, fld.name, m.fields[fld.name], fld.dims, fld.attrs())
         set_root_attrs(f, {**map_root_attrs(m), **(extra_attrs or {})})
     return path
 

@@ -12,10 +12,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .kernels.field import (count_summary, finger_field, map_outcomes, new_finger_arrays,
-                            new_outcome_arrays, new_trajectory_arrays, trajectory_ends)
-from .model import (GRID_TOL, INFEASIBLE, MAP_SUMMARY_FIELDS, Accuracy, Command, Design, Effects,
-                    Grid, Limits, ModelInputError, Part, validate_inputs)
+from .kernels.field import finger_field, map_from_fingers
+from .kernels.records import (FingerArrays, FingerModel, ForceArrays, Hand, OutcomeArrays,
+                              SolverSettings, new_finger_arrays, new_force_arrays,
+                              new_outcome_arrays)
+from .model import (GRID_TOL, Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError,
+                    Part, validate_inputs)
+from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS
 
 # Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
 # outcomes (3 floats, 5 flags/codes), trajectories (code, 2 int64).
@@ -133,7 +136,8 @@ def check_memory(n_points: int, what: str = "the grid") -> None:
 
 @dataclass
 class EnergyMap:
-    """Labelled arrays of one map. fields[name] is on (y, x) or (finger, y, x), finger 0 = left."""
+    """Labelled arrays of one map. fields[name] is on (y, x) or (finger, y, x), finger 0 = left;
+    the names and meanings are those of sweep.schema.POINT_FIELDS."""
 
     design: Design
     part: Part
@@ -146,56 +150,74 @@ class EnergyMap:
     y: np.ndarray
     fields: dict = field(default_factory=dict)
     attrs: dict = field(default_factory=dict)
+    outputs: tuple[str, ...] = ("energy", "equilibrium", "caging")
 
 
-MAP_FIELDS_2D = ("energy", "point_class", "end_state", "equilibrium", "contained", "l_open",
-                 "caging_score")
-MAP_FIELDS_FINGER = ("finger_mode", "theta1", "theta2", "k1", "k2", "tip_overlap")
+def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
+                   effects: Effects) -> tuple[FingerModel, SolverSettings]:
+    """The kernels' parameter records of a map (one place: the map and the sweep paths)."""
+    mu_s = part.mu if effects.friction else 0.0
+    finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
+                         float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
+    return finger, SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
+
+
+def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
+               forces: ForceArrays | None) -> dict[str, np.ndarray]:
+    """Kernel arrays -> the named per-point fields of sweep.schema."""
+    fields = dict(energy=outs.energy, point_class=outs.point_class, end_state=outs.end_state,
+                  equilibrium=outs.equilibrium, contained=outs.contained, l_open=outs.l_open,
+                  caging_score=outs.caging_score, finger_mode=fingers.mode, theta1=fingers.t1,
+                  theta2=fingers.t2, k1=fingers.k1, k2=fingers.k2,
+                  tip_overlap=fingers.tip_overlap, end_index=outs.end_index)
+    if forces is not None:
+        fields.update(proximal_normal_force=forces.proximal_normal,
+                      distal_normal_force=forces.distal_normal,
+                      distal_friction_multiplier=forces.distal_multiplier,
+                      resultant_force_x=forces.resultant_x, resultant_force_y=forces.resultant_y,
+                      forces_determined=forces.determined)
+    assert set(fields) <= set(POINT), set(fields) - set(POINT)
+    return fields
+
+
+def summary_attrs(summary: np.ndarray) -> dict:
+    """The kernels' summary row as named attributes (floats and counts, sweep.schema.SUMMARY)."""
+    return {name: (int(v) if name in COUNT_FIELDS else float(v))
+            for name, v in zip(SUMMARY_FIELDS, summary)}
 
 
 def compute_map(design: Design, part: Part, command: Command = Command(), grid: Grid = Grid(),
                 limits: Limits = Limits(), accuracy: Accuracy = Accuracy(),
-                effects: Effects = Effects()) -> EnergyMap:
-    """Compute one friction-based energy map (MODEL 2-8)."""
+                effects: Effects = Effects(), forces: bool = False) -> EnergyMap:
+    """Compute one friction-based energy map (MODEL 2-8); with `forces`, also the contact forces
+    of both fingers at every feasible point (MODEL 5.1, 5.6)."""
     validate_inputs(design, part, command, limits, accuracy, effects)
     g = map_grid(design, part, grid)
     ny, nx = g.shape
-    check_memory(ny * nx)
-    mu = part.mu if effects.friction else 0.0
-    th2min, th2max = limits.theta2_min, limits.theta2_max
+    finger, solver = kernel_records(design, part, limits, accuracy, effects)
     started = time.perf_counter()
 
-    mode, t1, t2, k1, k2, overlap = new_finger_arrays(2, ny, nx)
+    fingers = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
     for side, dxs in ((0, dx_left), (1, dx_right)):
-        finger_field(dxs, g.y, design.l1, design.l2, design.r1, design.r2, part.r, mu, th2min,
-                     th2max, accuracy.reconfig_step, accuracy.root_tol, mode[side], t1[side],
-                     t2[side], k1[side], k2[side], overlap[side])
+        finger_field(dxs, g.y, finger, solver, fingers, side)
     solved = time.perf_counter()
 
-    (energy, point_class, equilibrium, contained, l_open, crossed, caged,
-     caging_score) = new_outcome_arrays(ny, nx)
-    map_outcomes(g.x, g.y, design.w, design.l1, design.l2, design.r1, design.r2, part.r, mu,
-                 command.f_left, command.f_right, th2min, mode, t1, t2, k1, k2, energy,
-                 point_class, equilibrium, contained, l_open, crossed, caged, caging_score)
-    end_state, end_index, stack = new_trajectory_arrays(ny, nx)
-    Lambda = trajectory_ends(energy, point_class, equilibrium, caged, caging_score, g.h,
-                             end_state, end_index, stack)
+    outs = new_outcome_arrays(ny, nx)
+    force_arrays = new_force_arrays(ny, nx) if forces else None
+    summary = np.empty(len(SUMMARY_FIELDS))
+    map_from_fingers(g.x, g.y, finger, Hand(float(design.w), float(command.f_left),
+                                            float(command.f_right), float(g.h)),
+                     fingers, outs, force_arrays, np.empty(ny * nx, dtype=np.int64), summary,
+                     True)
     finished = time.perf_counter()
-    overlap &= point_class != INFEASIBLE  # no flag where the point does not exist
 
-    fields = dict(energy=energy, point_class=point_class, end_state=end_state,
-                  equilibrium=equilibrium, contained=contained, l_open=l_open,
-                  caging_score=caging_score, finger_mode=mode, theta1=t1, theta2=t2, k1=k1,
-                  k2=k2, tip_overlap=overlap)
-    summary = np.empty(len(MAP_SUMMARY_FIELDS))
-    count_summary(point_class, end_state, equilibrium, caged, crossed, overlap, Lambda, g.h,
-                  summary)
-    attrs = {name: (float(v) if name in ("Lambda", "caging_area") else int(v))
-             for name, v in zip(MAP_SUMMARY_FIELDS, summary)}
+    attrs = summary_attrs(summary)
     attrs.update(window_edge="user window: trajectories stop at its edge" if g.windowed
                  else "whole reach", seconds_fingers=solved - started,
                  seconds_total=finished - started)
+    outputs = ("energy", "equilibrium", "caging") + (("forces",) if forces else ())
     return EnergyMap(design=design, part=part, command=command, grid=grid, limits=limits,
-                     accuracy=accuracy, effects=effects, x=g.x, y=g.y, fields=fields,
-                     attrs=attrs)
+                     accuracy=accuracy, effects=effects, x=g.x, y=g.y,
+                     fields=map_fields(fingers, outs, force_arrays), attrs=attrs,
+                     outputs=outputs)

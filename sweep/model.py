@@ -24,12 +24,7 @@ END_STATE_MEANINGS = ("none", "caged", "tip_prehension", "ejection", "stalled")
 FREE, PROXIMAL_ONLY, TWO_PHALANX, DISTAL_ONLY, SLIPPED, VERTEX = 0, 1, 2, 3, 4, 5
 FINGER_MODE_MEANINGS = ("free", "proximal_only", "two_phalanx", "distal_only", "slipped", "vertex")
 
-# Per-map summary row (kernels.field.count_summary writes it in this order).
-MAP_SUMMARY_FIELDS = (
-    "Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
-    "n_reached", "n_equilibrium", "n_vertex", "n_tip_overlap", "n_caged_crossed", "n_points",
-    "n_infeasible", "n_unreached", "n_eject", "n_caged_points",
-)
+# Per-map summary fields and per-point fields are declared in sweep.schema.
 
 LEFT, RIGHT = 0, 1
 FINGER_NAMES = ("left", "right")
@@ -180,6 +175,3 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         if unsupported:
             raise ModelInputError(f"effects not implemented yet: {', '.join(sorted(unsupported))}")
 
-
-def as_dict(obj) -> dict:
-    return asdict(obj)

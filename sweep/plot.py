@@ -58,36 +58,21 @@ END_STYLE = {
 # ---------------------------------------------------------------------------------------------
 # Trajectories
 # ---------------------------------------------------------------------------------------------
-def successors(energy: np.ndarray, point_class: np.ndarray, stable: np.ndarray,
-               h: float) -> np.ndarray:
-    """Flat index of the downhill successor of every moving point of P_j, else -1.
-
-    Points of P_j in equilibrium do not move; points outside P_j end a trajectory.
-    """
+def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
+                    stable: np.ndarray, h: float) -> list[int]:
+    """Flat indices of the downhill path from `start` (the kernels' rule, `downhill_neighbour`):
+    it stops at a stable point, at the first point outside P_j, or where it stalls. Only the
+    drawn paths are walked; where every path ends comes from the map's `end_index`."""
     ny, nx = energy.shape
-    succ = np.full(ny * nx, -1, dtype=np.int64)
-    energy = np.ascontiguousarray(energy, dtype=np.float64)
-    point_class = np.ascontiguousarray(point_class)
-    for p in np.flatnonzero((point_class == REACHED) & ~stable):
-        j, i = divmod(int(p), nx)
-        succ[p] = downhill_neighbour(energy, point_class, i, j, h)
-    return succ
-
-
-def trajectory_end_points(succ: np.ndarray) -> np.ndarray:
-    """End point (flat index) of the trajectory through every grid point (pointer jumping)."""
-    nxt = np.where(succ >= 0, succ, np.arange(succ.size))
-    while True:
-        jumped = nxt[nxt]
-        if np.array_equal(jumped, nxt):
-            return nxt
-        nxt = jumped
-
-
-def trajectory_path(start: int, succ: np.ndarray) -> list[int]:
     path = [start]
-    while succ[path[-1]] >= 0 and len(path) <= succ.size:
-        path.append(int(succ[path[-1]]))
+    while len(path) <= energy.size:
+        j, i = divmod(path[-1], nx)
+        if point_class[j, i] != REACHED or stable[j, i]:
+            break
+        q = downhill_neighbour(energy, point_class, i, j, h)
+        if q < 0:
+            break
+        path.append(int(q))
     return path
 
 
@@ -216,7 +201,7 @@ def _title(m) -> tuple[str, str]:
                      f"{a.get('n_caged_points', 0)}")
     if a.get("n_tip_overlap"):
         extra.append(f"tip overlap: {a['n_tip_overlap']}")
-    if a.get("window_edge") == "user window":
+    if str(a.get("window_edge", "")).startswith("user window"):
         extra.append("user window")
     if not m.effects.friction:
         extra.append("friction off")
@@ -239,9 +224,8 @@ def draw_map(m) -> Figure:
     stable = reached & equilibrium
     caged = stable & (end_state == END_CAGED)
 
-    # Trajectories of every point of P_j (for the end points), a sparse subset drawn.
-    succ = successors(energy, point_class, stable, h)
-    ends = trajectory_end_points(succ)
+    # Where every trajectory of P_j ends (computed by the kernels), a sparse subset drawn.
+    ends = np.asarray(m.fields["end_index"]).ravel()
     start_mask = reached.ravel()
     end_count = np.bincount(ends[start_mask], minlength=ny * nx).astype(float)
     moving = reached & ~stable
@@ -330,7 +314,7 @@ def draw_map(m) -> Figure:
     segments = []
     arrows = []
     for s in starts:
-        path = trajectory_path(int(s), succ)
+        path = trajectory_path(int(s), energy, point_class, stable, h)
         if len(path) < 2:
             continue
         pts = np.column_stack([flat_x[path], flat_y[path]])

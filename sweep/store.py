@@ -29,46 +29,17 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .batch import SUMMARY_FIELDS
 from .chunks import Range, chunk_ranges, exact_cover
 from .h5 import (atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
 from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
+from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
 KIND_STORE = "sweep-store"
 
-COUNT_FIELDS = tuple(f for f in SUMMARY_FIELDS if f.startswith("n_"))
-
-FIELD_ATTRS = {
-    "Lambda": dict(long_name="caging metric Lambda_j: sum of the end point's caging score over the "
-                             "grid points whose trajectory ends caged (MODEL 8); grows as 1/h^2",
-                   units="1"),
-    "caging_area": dict(long_name="resolution-independent caging metric Lambda_j * h^2",
-                        units="length^2 (model units)"),
-    "n_caged": dict(long_name="grid points whose trajectory ends caged"),
-    "n_tip_prehension": dict(long_name="grid points whose trajectory ends in tip prehension"),
-    "n_ejection": dict(long_name="grid points whose trajectory ends in ejection"),
-    "n_stalled": dict(long_name="grid points whose trajectory stalls (no lower neighbour) before "
-                                "a stable point"),
-    "n_reached": dict(long_name="grid points of class reached (the set P_j)"),
-    "n_equilibrium": dict(long_name="grid points where the part is in equilibrium"),
-    "n_vertex": dict(long_name="grid points of class vertex (a finger's vertex strikes the part)"),
-    "n_tip_overlap": dict(long_name="feasible grid points where a finger is flagged tip_overlap "
-                               "(its distal link passed through the part, MODEL 4.3)"),
-    "n_caged_crossed": dict(long_name="caged grid points whose fingers cross each other"),
-    "n_points": dict(long_name="grid points of the map (whole-reach grid of the design)"),
-    "n_infeasible": dict(long_name="grid points of class infeasible (part overlaps palm or "
-                                   "open fingers)"),
-    "n_unreached": dict(long_name="grid points of class unreached (both fingers free)"),
-    "n_eject": dict(long_name="grid points of class eject (a finger slipped)"),
-    "n_caged_points": dict(long_name="grid points that are caged themselves (stable, contained, "
-                                     "L_open < 2r)"),
-}
-for _f in COUNT_FIELDS:
-    FIELD_ATTRS.setdefault(_f, dict(long_name=_f.replace("_", " ")))
-    FIELD_ATTRS[_f].setdefault("units", "1")
+FIELD_ATTRS = {f.name: f.attrs() for f in SUMMARY}  # declared once, in sweep.schema
 
 COORD_ATTRS = {
     "l1": dict(long_name="proximal link length l1", units="length (model units)"),

@@ -4,8 +4,11 @@ import math
 import numpy as np
 import pytest
 
-from sweep.kernels.finger import (DISTAL_ON_LOWER_STOP, closing_contact, contact_forces,
-                                  finger_energy, solve_finger)
+from kernel_calls import closing as closing_contact
+from kernel_calls import finger_model
+from kernel_calls import solve as solve_finger
+from sweep.kernels.finger import DISTAL_ON_LOWER_STOP, finger_energy, finger_statics
+from sweep.kernels.records import FingerState
 from sweep.model import DISTAL_ONLY, FREE, PROXIMAL_ONLY, SLIPPED, TWO_PHALANX, VERTEX
 
 TH2MIN = math.radians(-5.0)
@@ -171,7 +174,10 @@ def test_contact_forces_balance_the_joint_torques(mode_args):
     """MODEL 5.1: T2 = sum over distal contacts (c - B) x f, T1 = sum over contacts (c - J) x f."""
     mode, t1, t2, k1, k2 = mode_args
     l1, r1, r2, mu, F = 2.0, 0.2, 0.02, 0.4, 1.3
-    f1, f2, mu2 = contact_forces(mode, t1, t2, k1, k2, l1, r1, r2, mu, F, TH2MIN, TH2MAX)
+    st = finger_statics(FingerState(mode, t1, t2, k1, k2, False),
+                        finger_model(l1, 0.0, r1, r2, 0.4, mu, TH2MIN, TH2MAX))
+    assert st.determined
+    f1, f2, mu2 = F * st.proximal_normal, F * st.distal_normal, st.distal_multiplier  # linear in F
     assert f1 >= 0 and f2 >= 0 and abs(mu2) <= mu
     ax = np.array([math.cos(t1), math.sin(t1)])
     ay = np.array([-math.sin(t1), math.cos(t1)])
@@ -238,11 +244,11 @@ def test_a_grazing_vertex_does_not_strike():
 def test_reconfiguration_terminates_for_any_step():
     """The path loop is bounded in floating point and always ends on an event (the last node is
     t1 = 0), even for a step the edge would refuse."""
-    from sweep.kernels.finger import reconfigure
+    from kernel_calls import reconfig
     l1, l2, r, t1, k2 = 2.0, 1.6, 0.4, 1.2, 0.1
     dx, dy = on_distal(t1, TH2MIN, k2, l1, r)
-    coarse = reconfigure(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MAX, 0.01, 1e-12)
-    tiny_step = reconfigure(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MAX, 1e-300, 1e-12)
+    coarse = reconfig(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MIN, TH2MAX, 0.01, 1e-12)
+    tiny_step = reconfig(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MIN, TH2MAX, 1e-300, 1e-12)
     assert all(math.isfinite(v) for v in tiny_step[1:])
     assert coarse[0] == DISTAL_ONLY and 0 < coarse[1] < t1
     # a step below float resolution collapses the path to one bracket [0, t1]; the stick region

@@ -7,7 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sweep.batch import SUMMARY_FIELDS, summarize_cells
-from sweep.kernels.finger import finger_energy, solve_finger
+from kernel_calls import solve as solve_finger
+from sweep.kernels.finger import finger_energy
 from sweep.kernels.geometry import distal_tangency
 from sweep.maps import compute_map
 from sweep.model import (DISTAL_ONLY, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX, Accuracy,

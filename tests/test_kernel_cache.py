@@ -25,12 +25,18 @@ def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
     (fake / "kernels").mkdir(parents=True)
     for path in Path(kernels.__file__).parent.glob("*.py"):
         (fake / "kernels" / path.name).write_bytes(path.read_bytes())
-    (fake / "model.py").write_bytes((Path(kernels.__file__).parent.parent / "model.py").read_bytes())
+    for name in ("model.py", "schema.py"):
+        (fake / name).write_bytes((Path(kernels.__file__).parent.parent / name).read_bytes())
     monkeypatch.setattr(kernels, "__file__", str(fake / "kernels" / "__init__.py"))
     before = kernels._kernel_source_digest()
     part = fake / "kernels" / "part.py"
     part.write_text(part.read_text() + "\n# changed\n")
-    assert kernels._kernel_source_digest() != before
+    after_kernel = kernels._kernel_source_digest()
+    assert after_kernel != before
+    # the schema's summary positions are frozen into the kernels too
+    schema = fake / "schema.py"
+    schema.write_text(schema.read_text() + "\n# changed\n")
+    assert kernels._kernel_source_digest() != after_kernel
 
 
 def test_numba_cache_dir_is_respected(tmp_path):

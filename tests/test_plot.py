@@ -7,7 +7,7 @@ import pytest
 from sweep.maps import compute_map
 from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, REACHED,
                          Command, Design, Grid, Part)
-from sweep.plot import plot_map, successors, trajectory_end_points
+from sweep.plot import _title, plot_map, trajectory_path
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -68,16 +68,28 @@ def test_plot_leaves_no_temp_file_when_saving_fails(small_map, tmp_path, monkeyp
 
 
 def test_plotted_trajectory_ends_match_the_kernel(small_map):
-    """The picture's trajectories (downhill_neighbour) end where the map says they end."""
+    """The picture's paths (walked with downhill_neighbour) end where the kernel says: at the
+    point `end_index` names, with the end state `end_state` says."""
     f = small_map.fields
     h = float(small_map.x[1] - small_map.x[0])
     reached = f["point_class"] == REACHED
     stable = reached & f["equilibrium"]
-    ends = trajectory_end_points(successors(f["energy"], f["point_class"], stable, h))
-    e = ends[reached.ravel()]
-    kind = np.where(~reached.ravel()[e], END_EJECTION,
-                    np.where(stable.ravel()[e],
-                             np.where(f["end_state"].ravel()[e] == END_CAGED, END_CAGED,
-                                      END_TIP_PREHENSION),
-                             END_STALLED))
-    assert np.array_equal(kind, f["end_state"].ravel()[reached.ravel()])
+    nx = f["energy"].shape[1]
+    starts = np.flatnonzero(reached.ravel())
+    assert starts.size > 50
+    for p in starts:
+        end = trajectory_path(int(p), f["energy"], f["point_class"], stable, h)[-1]
+        assert end == f["end_index"].ravel()[p]
+        j, i = divmod(end, nx)
+        kind = (END_EJECTION if not reached[j, i] else
+                (END_CAGED if f["end_state"][j, i] == END_CAGED else END_TIP_PREHENSION)
+                if stable[j, i] else END_STALLED)
+        assert kind == f["end_state"].ravel()[p]
+
+
+def test_title_says_when_the_map_is_a_user_window():
+    windowed = compute_map(Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4), Command(),
+                           Grid(h=0.2, xlim=(-1.0, 1.0), ylim=(0.4, 2.0)))
+    whole = compute_map(Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4), Command(), Grid(h=0.2))
+    assert "user window" in _title(windowed)[1]
+    assert "user window" not in _title(whole)[1]

@@ -28,19 +28,6 @@ SCALARS = {"Lambda": "Lambda", "n_caged": "n_caged", "n_tip_prehension": "n_tip_
            "n_crossed_caged": "n_caged_crossed"}
 
 
-def _fast_available():
-    try:
-        import sweep.kernels.finger  # noqa: F401
-        import sweep.maps  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-needs_fast = pytest.mark.skipif(not _fast_available(),
-                                reason="fast implementation (sweep.maps) not available yet")
-
-
 # ---------------------------------------------------------------------------------------------
 # Self-checks of the reference (always run)
 # ---------------------------------------------------------------------------------------------
@@ -155,7 +142,6 @@ MAP_CASES = [
 ]
 
 
-@needs_fast
 @pytest.mark.parametrize("case", MAP_CASES, ids=lambda c: "-".join(f"{v:g}" for v in c))
 def test_fast_map_matches_reference(case):
     l1, l2, r1, r2, w, r, mu, f_left, f_right, h = case
@@ -187,7 +173,6 @@ ROUNDOFF_TIES = [
 ]
 
 
-@needs_fast
 @pytest.mark.parametrize("case", ROUNDOFF_TIES)
 def test_fast_map_roundoff_ties(case):
     l1, l2, r1, r2, w, r, mu, f_left, f_right, h = case
@@ -196,7 +181,6 @@ def test_fast_map_roundoff_ties(case):
     assert_maps_equal(fast, ref)
 
 
-@needs_fast
 @pytest.mark.parametrize("xlim,ylim", [((-1.0, 2.5), (0.4, 2.0)), ((0.35, 3.0), (1.25, 3.0)),
                                        ((-4.0, -1.0), None)])
 def test_fast_window_matches_reference(xlim, ylim):
@@ -219,7 +203,6 @@ table_designs = st.tuples(
 )
 
 
-@needs_fast
 @given(table_designs, st.sampled_from([0.2, 0.25]))
 def test_fast_map_matches_reference_random_designs(design, h):
     ref = naive_map(*design, h=h)
@@ -246,7 +229,7 @@ def finger_inputs(draw):
 
 
 def assert_finger_equal(args, step=0.01, root_tol=1e-12):
-    from sweep.kernels.finger import solve_finger
+    from kernel_calls import solve as solve_finger
     ref = naive_finger(*args, reconfig_step=step, root_tol=root_tol)
     mode, t1, t2, k1, k2, tip = solve_finger(*args, step, root_tol)
     fast = {"mode": int(mode), "t1": float(t1), "t2": float(t2), "k1": float(k1),
@@ -257,13 +240,11 @@ def assert_finger_equal(args, step=0.01, root_tol=1e-12):
         assert abs(fast[key] - ref[key]) <= TOL, (args, key, fast, ref)
 
 
-@needs_fast
 @given(finger_inputs())
 def test_fast_finger_matches_reference(args):
     assert_finger_equal(args)
 
 
-@needs_fast
 @pytest.mark.parametrize("args", [
     (-2.0, 0.4, 2.0, 1.6, 0.2, 0.14, 0.4, 0.4, TH2_MIN, TH2_MAX),    # contact exactly at B
     (0.0, 0.4, 2.0, 1.6, 0.2, 0.14, 0.4, 0.4, TH2_MIN, TH2_MAX),     # |d| == r

@@ -3,14 +3,15 @@
 geometry  closed-form contact geometry (MODEL 3) and vertex strikes (MODEL 4)
 finger    one finger: closing sequence, stick-slip, reconfiguration, energy, forces (MODEL 4-6)
 part      part equilibrium, containment, opening (MODEL 7, 8)
+records   the parameter and result records every kernel takes and returns
 field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
 cells     many maps at once: summaries of cells x palm widths from shared finger fields
 
 Compiled kernels are cached on disk (`cache=True`). Numba checks only the file of the function it
 loads, so a kernel that inlines a changed function from another file would load stale code: the
-cache directory is therefore keyed by a hash of every kernel source (and of `model.py`, whose
-constants are frozen into them). It lives under $NUMBA_CACHE_DIR if set (on a cluster, point it
-at node-local disk), else under $XDG_CACHE_HOME/sweep (default ~/.cache/sweep).
+cache directory is therefore keyed by a hash of every kernel source (and of `model.py` and
+`schema.py`, whose constants are frozen into them). It lives under $NUMBA_CACHE_DIR if set (on a
+cluster, point it at node-local disk), else under $XDG_CACHE_HOME/sweep (default ~/.cache/sweep).
 """
 import hashlib
 import os
@@ -22,7 +23,7 @@ import numba
 def _kernel_source_digest() -> str:
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for path in sorted([*here.glob("*.py"), here.parent / "model.py"]):
+    for path in sorted([*here.glob("*.py"), here.parent / "model.py", here.parent / "schema.py"]):
         digest.update(path.name.encode())
         digest.update(path.read_bytes())
     return digest.hexdigest()[:16]
@@ -39,6 +40,6 @@ def _cache_root() -> Path:
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
 try:
-    from . import cells, field, finger, geometry, part  # noqa: E402,F401
+    from . import cells, field, finger, geometry, part, records  # noqa: E402,F401
 finally:
     numba.config.CACHE_DIR = _user_cache_dir

@@ -1,7 +1,11 @@
-"""Grids of points: finger fields, per-point outcomes and trajectories of a map (MODEL 8).
+"""Grids of points: finger fields, per-point outcomes, trajectories and the summary of a map
+(MODEL 7, 8).
 
-Row functions do the work; two thin drivers loop over rows, one with `prange` (one map, all
-threads) and one serial (called inside the sweep's own parallel loop over maps, since Numba's
+The map pipeline is one function, `map_from_fingers`: outcomes -> trajectories -> summary, from
+finger fields that the caller fills (directly with `finger_field`, or by gathering a shared field
+in `kernels.cells`). `sweep.maps.compute_map`, the sweep's shared-field path and the plot all go
+through it. Row functions do the work; `finger_field` loops over rows with `prange` (one map, all
+threads), `finger_field_serial` runs inside the sweep's own parallel loop over maps (Numba's
 default threading layer does not nest parallel regions).
 """
 import math
@@ -12,72 +16,61 @@ from numba import njit, prange
 from ..model import (EJECT, END_CAGED, END_EJECTION, END_NONE, END_STALLED, END_TIP_PREHENSION,
                      FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX,
                      VERTEX_POINT)
-from .finger import OVERLAP, finger_energy, solve_finger
+from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
+from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
+from .records import FingerState
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
                    tip_clearance)
 
-# ---------------------------------------------------------------------------------------------
-# Working arrays of a map (one place for their shapes and types)
-# ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def new_finger_arrays(n_fingers, ny, nx):
-    """(mode, t1, t2, k1, k2, tip_overlap) on (finger, y, x)."""
-    shape = (n_fingers, ny, nx)
-    return (np.empty(shape, dtype=np.int8), np.empty(shape), np.empty(shape), np.empty(shape),
-            np.empty(shape), np.empty(shape, dtype=np.bool_))
-
-
-@njit(cache=True)
-def new_outcome_arrays(ny, nx):
-    """(energy, point_class, equilibrium, contained, l_open, crossed, caged, caging_score)."""
-    shape = (ny, nx)
-    return (np.empty(shape), np.empty(shape, dtype=np.int8), np.empty(shape, dtype=np.bool_),
-            np.empty(shape, dtype=np.bool_), np.empty(shape), np.empty(shape, dtype=np.bool_),
-            np.empty(shape, dtype=np.bool_), np.empty(shape))
-
-
-@njit(cache=True)
-def new_trajectory_arrays(ny, nx):
-    """(end_state, end_index, stack) for trajectory_ends."""
-    return (np.empty((ny, nx), dtype=np.int8), np.empty((ny, nx), dtype=np.int64),
-            np.empty(ny * nx, dtype=np.int64))
+# Positions in the summary row (sweep.schema), frozen into the kernels as constants.
+N_SUMMARY = len(SUMMARY_FIELDS)
+S_LAMBDA = SUMMARY_INDEX["Lambda"]
+S_CAGING_AREA = SUMMARY_INDEX["caging_area"]
+S_CAGED = SUMMARY_INDEX["n_caged"]
+S_TIP_PREHENSION = SUMMARY_INDEX["n_tip_prehension"]
+S_EJECTION = SUMMARY_INDEX["n_ejection"]
+S_STALLED = SUMMARY_INDEX["n_stalled"]
+S_REACHED = SUMMARY_INDEX["n_reached"]
+S_EQUILIBRIUM = SUMMARY_INDEX["n_equilibrium"]
+S_VERTEX = SUMMARY_INDEX["n_vertex"]
+S_TIP_OVERLAP = SUMMARY_INDEX["n_tip_overlap"]
+S_CAGED_CROSSED = SUMMARY_INDEX["n_caged_crossed"]
+S_POINTS = SUMMARY_INDEX["n_points"]
+S_INFEASIBLE = SUMMARY_INDEX["n_infeasible"]
+S_UNREACHED = SUMMARY_INDEX["n_unreached"]
+S_EJECT = SUMMARY_INDEX["n_eject"]
+S_CAGED_POINTS = SUMMARY_INDEX["n_caged_points"]
+SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edges)
 
 
 # ---------------------------------------------------------------------------------------------
 # Finger fields
 # ---------------------------------------------------------------------------------------------
-
-
 @njit(cache=True)
-def finger_row(j, dxs, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol,
-               mode, t1, t2, k1, k2, overlap):
-    """Solve one finger at every column offset dxs[i] of row j (part centre at (dxs[i], dy))."""
+def finger_row(j, dxs, dy, finger, solver, fingers, side):
+    """Solve one finger at every column offset dxs[i] of row j (part centre at (dxs[i], dy))
+    into fingers[side]."""
     for i in range(dxs.shape[0]):
-        m, a1, a2, c1, c2, ov = solve_finger(dxs[i], dy, l1, l2, r1, r2, r, mu, theta2_min,
-                                             theta2_max, step, root_tol)
-        mode[j, i] = m
-        t1[j, i] = a1
-        t2[j, i] = a2
-        k1[j, i] = c1
-        k2[j, i] = c2
-        overlap[j, i] = ov
+        s = solve_finger(dxs[i], dy, finger, solver)
+        fingers.mode[side, j, i] = s.mode
+        fingers.t1[side, j, i] = s.t1
+        fingers.t2[side, j, i] = s.t2
+        fingers.k1[side, j, i] = s.k1
+        fingers.k2[side, j, i] = s.k2
+        fingers.tip_overlap[side, j, i] = s.tip_overlap
 
 
 @njit(cache=True, parallel=True)
-def finger_field(dxs, dys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol,
-                 mode, t1, t2, k1, k2, overlap):
+def finger_field(dxs, dys, finger, solver, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
     for j in prange(dys.shape[0]):
-        finger_row(j, dxs, dys[j], l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step,
-                   root_tol, mode, t1, t2, k1, k2, overlap)
+        finger_row(j, dxs, dys[j], finger, solver, fingers, side)
 
 
 @njit(cache=True)
-def finger_field_serial(dxs, dys, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol,
-                        mode, t1, t2, k1, k2, overlap):
+def finger_field_serial(dxs, dys, finger, solver, fingers, side):
     for j in range(dys.shape[0]):
-        finger_row(j, dxs, dys[j], l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step,
-                   root_tol, mode, t1, t2, k1, k2, overlap)
+        finger_row(j, dxs, dys[j], finger, solver, fingers, side)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -98,82 +91,101 @@ def classify_point(y, r, mode_l, mode_r):
 
 
 @njit(cache=True)
-def outcome_row(j, xs, y, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
-                mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                crossed, caged, caging_score, scratch, every_point):
-    """Class, energy, equilibrium, containment, opening and point score along row j.
-
-    mode/t1/t2/k1/k2 are (2, ny, nx) finger arrays (0 = left, 1 = right) and are overwritten with
-    fill values (-1 / NaN) at infeasible points. With every_point False (summaries only),
-    containment, L_open and crossing are computed only where the part is stable, the only points
-    whose score or counts depend on them; elsewhere they are left False / NaN.
-    """
-    for i in range(xs.shape[0]):
-        x = xs[i]
-        ml = mode[0, j, i]
-        mr = mode[1, j, i]
-        c = classify_point(y, r, ml, mr)
-        point_class[j, i] = c
-        equilibrium[j, i] = False
-        contained[j, i] = False
-        crossed[j, i] = False
-        caged[j, i] = False
-        caging_score[j, i] = 0.0
-        if c == INFEASIBLE:
-            energy[j, i] = np.nan
-            l_open[j, i] = np.nan
-            for side in range(2):
-                mode[side, j, i] = -1
-                t1[side, j, i] = np.nan
-                t2[side, j, i] = np.nan
-                k1[side, j, i] = np.nan
-                k2[side, j, i] = np.nan
-            continue
-        a1l = t1[0, j, i]
-        a2l = t2[0, j, i]
-        a1r = t1[1, j, i]
-        a2r = t2[1, j, i]
-        energy[j, i] = (finger_energy(a1l, a2l, r1, r2, f_left, theta2_min)
-                        + finger_energy(a1r, a2r, r1, r2, f_right, theta2_min))
-        eq = False
-        if c == REACHED:
-            eq = part_in_equilibrium(scratch, x, y, w, r, mu, ml, a1l, a2l, mr, a1r, a2r)
-            equilibrium[j, i] = eq
-        l_open[j, i] = np.nan
-        if not (eq or every_point):
-            continue
-        left = finger_polyline(0, a1l, a2l, l1, l2, w)
-        right = finger_polyline(1, a1r, a2r, l1, l2, w)
-        inside = part_contained(x, y, left, right)
-        intersect = fingers_cross(left, right)
-        opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
-        contained[j, i] = inside
-        l_open[j, i] = opening
-        crossed[j, i] = intersect
-        if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
-            caged[j, i] = True
-            caging_score[j, i] = 1.0 - opening / (2.0 * r)
-
-
-@njit(cache=True, parallel=True)
-def map_outcomes(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
-                 mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                 crossed, caged, caging_score):
-    for j in prange(ys.shape[0]):
-        scratch = np.empty(16)  # per row, not per point
-        outcome_row(j, xs, ys[j], w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
-                    mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                    crossed, caged, caging_score, scratch, True)
+def fill_infeasible(j, i, fingers, outs, forces):
+    """Fill values where the point does not exist (model-notes D6)."""
+    outs.energy[j, i] = np.nan
+    outs.l_open[j, i] = np.nan
+    for side in range(2):
+        fingers.mode[side, j, i] = -1
+        fingers.t1[side, j, i] = np.nan
+        fingers.t2[side, j, i] = np.nan
+        fingers.k1[side, j, i] = np.nan
+        fingers.k2[side, j, i] = np.nan
+        fingers.tip_overlap[side, j, i] = False
+        if forces is not None:
+            forces.proximal_normal[side, j, i] = np.nan
+            forces.distal_normal[side, j, i] = np.nan
+            forces.distal_multiplier[side, j, i] = np.nan
+            forces.resultant_x[side, j, i] = np.nan
+            forces.resultant_y[side, j, i] = np.nan
+            forces.determined[side, j, i] = False
 
 
 @njit(cache=True)
-def map_outcomes_serial(xs, ys, w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
-                        mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained,
-                        l_open, crossed, caged, caging_score, scratch, every_point):
-    for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], w, l1, l2, r1, r2, r, mu, f_left, f_right, theta2_min,
-                    mode, t1, t2, k1, k2, energy, point_class, equilibrium, contained, l_open,
-                    crossed, caged, caging_score, scratch, every_point)
+def point_forces(j, i, finger, fingers, forces):
+    """Contact forces of both fingers at a feasible point (per unit tension, world frame)."""
+    for side in range(2):
+        st = finger_statics_at(fingers, side, j, i, finger)
+        forces.proximal_normal[side, j, i] = st.proximal_normal
+        forces.distal_normal[side, j, i] = st.distal_normal
+        forces.distal_multiplier[side, j, i] = st.distal_multiplier
+        # the left finger's frame is the right one's mirror image in x
+        forces.resultant_x[side, j, i] = st.resultant_x if side == 1 else -st.resultant_x
+        forces.resultant_y[side, j, i] = st.resultant_y
+        forces.determined[side, j, i] = st.determined
+
+
+@njit(cache=True)
+def finger_statics_at(fingers, side, j, i, finger):
+    return finger_statics(FingerState(fingers.mode[side, j, i], fingers.t1[side, j, i],
+                                      fingers.t2[side, j, i], fingers.k1[side, j, i],
+                                      fingers.k2[side, j, i], fingers.tip_overlap[side, j, i]),
+                          finger)
+
+
+@njit(cache=True)
+def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_point):
+    """Class, energy, equilibrium, containment, opening, point score (and contact forces when
+    `forces` is not None) along row j.
+
+    The finger arrays are overwritten with fill values (-1 / NaN / False) at infeasible points.
+    With every_point False (summaries only), containment, L_open and crossing are computed only
+    where the part is stable, the only points whose score or counts depend on them; elsewhere
+    they are left False / NaN.
+    """
+    r = finger.r
+    for i in range(xs.shape[0]):
+        x = xs[i]
+        ml = fingers.mode[0, j, i]
+        mr = fingers.mode[1, j, i]
+        c = classify_point(y, r, ml, mr)
+        outs.point_class[j, i] = c
+        outs.equilibrium[j, i] = False
+        outs.contained[j, i] = False
+        outs.crossed[j, i] = False
+        outs.caged[j, i] = False
+        outs.caging_score[j, i] = 0.0
+        if c == INFEASIBLE:
+            fill_infeasible(j, i, fingers, outs, forces)
+            continue
+        if forces is not None:
+            point_forces(j, i, finger, fingers, forces)
+        a1l = fingers.t1[0, j, i]
+        a2l = fingers.t2[0, j, i]
+        a1r = fingers.t1[1, j, i]
+        a2r = fingers.t2[1, j, i]
+        outs.energy[j, i] = (
+            finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
+            + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
+        eq = False
+        if c == REACHED:
+            eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
+                                     a1r, a2r)
+            outs.equilibrium[j, i] = eq
+        outs.l_open[j, i] = np.nan
+        if not (eq or every_point):
+            continue
+        left = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, hand.w)
+        right = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, hand.w)
+        inside = part_contained(x, y, left, right)
+        intersect = fingers_cross(left, right)
+        opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
+        outs.contained[j, i] = inside
+        outs.l_open[j, i] = opening
+        outs.crossed[j, i] = intersect
+        if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
+            outs.caged[j, i] = True
+            outs.caging_score[j, i] = 1.0 - opening / (2.0 * r)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -208,13 +220,17 @@ def downhill_neighbour(energy, point_class, i, j, h):
 
 
 @njit(cache=True)
-def trajectory_ends(energy, point_class, equilibrium, caged, caging_score, h, end_state,
-                    end_index, stack):
-    """End state and end point of the trajectory from every point of P_j (REACHED points).
+def trajectory_ends(outs, h, stack):
+    """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
+    point of P_j (REACHED points).
 
     A point's end is its downhill successor's end, so shared paths are walked once. `stack` is
     scratch of size >= number of points. Returns the map score Lambda (MODEL 8).
     """
+    energy = outs.energy
+    point_class = outs.point_class
+    end_state = outs.end_state
+    end_index = outs.end_index
     ny, nx = energy.shape
     size = ny * nx
     for p in range(size):
@@ -242,8 +258,8 @@ def trajectory_ends(energy, point_class, equilibrium, caged, caging_score, h, en
                 break
             stack[depth] = p
             depth += 1
-            if equilibrium[j, i]:
-                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
+            if outs.equilibrium[j, i]:
+                state = END_CAGED if outs.caged[j, i] else END_TIP_PREHENSION
                 last = p
                 break
             q = downhill_neighbour(energy, point_class, i, j, h)
@@ -259,47 +275,61 @@ def trajectory_ends(energy, point_class, equilibrium, caged, caging_score, h, en
     for p in range(size):
         if end_state.flat[p] == END_CAGED:
             q = end_index.flat[p]
-            score_sum += caging_score.flat[q]
+            score_sum += outs.caging_score.flat[q]
     return score_sum
 
 
 @njit(cache=True)
-def count_summary(point_class, end_state, equilibrium, caged, crossed, overlap, score_sum, h,
-                  out):
-    """The per-map summary row, in the order of model.MAP_SUMMARY_FIELDS."""
+def count_summary(outs, tip_overlap, score_sum, h, out):
+    """The per-map summary row, in the order of sweep.schema.SUMMARY."""
+    point_class = outs.point_class
     ny, nx = point_class.shape
     for n in range(out.shape[0]):
         out[n] = 0.0
-    out[0] = score_sum
-    out[1] = score_sum * h * h
+    out[S_LAMBDA] = score_sum
+    out[S_CAGING_AREA] = score_sum * h * h
     for j in range(ny):
         for i in range(nx):
             c = point_class[j, i]
             if c == REACHED:
-                e = end_state[j, i]
+                e = outs.end_state[j, i]
                 if e == END_CAGED:
-                    out[2] += 1
+                    out[S_CAGED] += 1
                 elif e == END_TIP_PREHENSION:
-                    out[3] += 1
+                    out[S_TIP_PREHENSION] += 1
                 elif e == END_EJECTION:
-                    out[4] += 1
+                    out[S_EJECTION] += 1
                 elif e == END_STALLED:
-                    out[5] += 1
-                out[6] += 1
-                if equilibrium[j, i]:
-                    out[7] += 1
+                    out[S_STALLED] += 1
+                out[S_REACHED] += 1
+                if outs.equilibrium[j, i]:
+                    out[S_EQUILIBRIUM] += 1
             elif c == VERTEX_POINT:
-                out[8] += 1
+                out[S_VERTEX] += 1
             elif c == INFEASIBLE:
-                out[12] += 1
+                out[S_INFEASIBLE] += 1
             elif c == UNREACHED:
-                out[13] += 1
+                out[S_UNREACHED] += 1
             elif c == EJECT:
-                out[14] += 1
-            if c != INFEASIBLE and (overlap[0, j, i] or overlap[1, j, i]):
-                out[9] += 1
-            if caged[j, i]:
-                out[15] += 1
-                if crossed[j, i]:
-                    out[10] += 1
-    out[11] = ny * nx
+                out[S_EJECT] += 1
+            if c != INFEASIBLE and (tip_overlap[0, j, i] or tip_overlap[1, j, i]):
+                out[S_TIP_OVERLAP] += 1
+            if outs.caged[j, i]:
+                out[S_CAGED_POINTS] += 1
+                if outs.crossed[j, i]:
+                    out[S_CAGED_CROSSED] += 1
+    out[S_POINTS] = ny * nx
+
+
+# ---------------------------------------------------------------------------------------------
+# The map pipeline
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def map_from_fingers(xs, ys, finger, hand, fingers, outs, forces, stack, summary, every_point):
+    """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
+    summary row. Serial: one map's outcomes cost a few percent of its finger fields."""
+    scratch = np.empty(SCRATCH_ANGLES)
+    for j in range(ys.shape[0]):
+        outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point)
+    score_sum = trajectory_ends(outs, hand.h, stack)
+    count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)

@@ -1,11 +1,12 @@
-"""One finger: which configuration it reaches and what it costs (MODEL 4, 5, 6).
+"""One finger: which configuration it reaches and what it exerts (MODEL 4, 5, 6).
 
 Split in two so the sweep can reuse work: `closing_contact` depends on geometry only
 (l1, l2, r, joint limits); `settle` adds the stick-slip decisions and the reconfiguration path,
 which depend on the pulley radii and friction. `solve_finger` is both in sequence.
 
 Right-finger frame throughout (`d = p - J`); the left finger calls the same code with `d` mirrored.
-Every function returns plain numbers and never raises.
+Parameters come as records (`kernels.records`): `finger` is a FingerModel, `solver` the
+SolverSettings; a finger's configuration is a FingerState. Nothing here raises.
 """
 import math
 
@@ -15,6 +16,7 @@ from ..model import (DISTAL_ONLY, FREE, PROXIMAL_ONLY, RANGE_TOL, SLIPPED, TWO_P
                      VERTEX)
 from .geometry import (clamp, distal_tangency, in_range, proximal_tangency,
                        rigid_distal_tangency, tangent_length, vertex_entry, wrap_angle)
+from .records import FingerState, FingerStatics
 
 # Internal modes of a first contact that still has to be settled (never stored).
 OVERLAP = -1                   # the part overlaps the joint: the point is infeasible
@@ -27,12 +29,14 @@ MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e
 
 
 # ---------------------------------------------------------------------------------------------
-# Statics (MODEL 5.2, 5.3): everything is decided with g = k1 k2 F1 / F, finite at k -> 0
+# Statics (MODEL 5.2, 5.3): everything is decided with g = k1 k2 F1 / F, finite at k -> 0.
+# `multiplier` is a tangential multiplier mu (|mu| <= mu_s); mu_s is the friction coefficient.
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def proximal_torque_balance(k2, t2, l1, r1, r2, mu):
+def proximal_torque_balance(k2, t2, finger, multiplier):
     """g(mu) = r1 k2 - r2 (l1 cos t2 + k2) + mu r2 l1 sin t2 (MODEL 5.3), for a given multiplier."""
-    return r1 * k2 - r2 * (l1 * math.cos(t2) + k2) + mu * r2 * l1 * math.sin(t2)
+    return (finger.r1 * k2 - finger.r2 * (finger.l1 * math.cos(t2) + k2)
+            + multiplier * finger.r2 * finger.l1 * math.sin(t2))
 
 
 @njit(cache=True)
@@ -47,36 +51,60 @@ def friction_for_sticking(t2, mu_s):
 
 
 @njit(cache=True)
-def max_torque_balance(k2, t2, l1, r1, r2, mu_s):
+def max_torque_balance(k2, t2, finger):
     """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick."""
-    return proximal_torque_balance(k2, t2, l1, r1, r2, friction_for_sticking(t2, mu_s))
+    return proximal_torque_balance(k2, t2, finger, friction_for_sticking(t2, finger.mu_s))
 
 
 @njit(cache=True)
-def distal_lever(k2, t2, l1, mu):
+def distal_lever(k2, t2, l1, multiplier):
     """Moment arm (per unit normal force) of a distal contact about the proximal joint."""
-    return l1 * math.cos(t2) + k2 - mu * l1 * math.sin(t2)
+    return l1 * math.cos(t2) + k2 - multiplier * l1 * math.sin(t2)
+
+
+@njit(cache=True)
+def sticks_on_lower_stop(k2, t2, finger):
+    """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
+    holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
+    positive lever. Both are linear in mu, so the admissible set is an interval; test that it is
+    not empty. The multiplier that maximises g is tried first: it decides every case but one
+    (g holds there, the lever does not: possible only for mu_s > cot|t2|, about 11.4 at -5 deg)."""
+    mu_best = friction_for_sticking(t2, finger.mu_s)
+    if proximal_torque_balance(k2, t2, finger, mu_best) < 0.0:
+        return False  # no multiplier gives g >= 0
+    if distal_lever(k2, t2, finger.l1, mu_best) > 0.0:
+        return True
+    # g >= 0 on the segment from g's root (clamped to the cone) to mu_best; the lever is linear,
+    # so it is positive somewhere on that segment iff it is positive at one of its ends.
+    s = math.sin(t2)
+    g0 = proximal_torque_balance(k2, t2, finger, 0.0)
+    slope_g = finger.r2 * finger.l1 * s
+    mu_g = clamp(-g0 / slope_g, -finger.mu_s, finger.mu_s)  # s != 0 here: mu_best != 0
+    return distal_lever(k2, t2, finger.l1, mu_g) > 0.0
 
 
 # ---------------------------------------------------------------------------------------------
 # Closing sequence (MODEL 4): geometry only
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def closing_contact(dx, dy, l1, l2, r, theta2_min, theta2_max):
-    """First contact of the closing sequence: (mode, t1, t2, k1, k2, tip_overlap).
-
-    mode is FREE, PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX,
-    DISTAL_ON_LOWER_STOP, DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint).
-    """
+def closing_contact(dx, dy, finger):
+    """First contact of the closing sequence, as a FingerState whose mode is FREE,
+    PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
+    DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint)."""
+    l1 = finger.l1
+    l2 = finger.l2
+    r = finger.r
+    theta2_min = finger.theta2_min
+    theta2_max = finger.theta2_max
     if tangent_length(dx * dx + dy * dy, r) < 0.0:
-        return OVERLAP, 0.0, 0.0, 0.0, 0.0, False
+        return FingerState(OVERLAP, 0.0, 0.0, 0.0, 0.0, False)
 
     # Rigid sweep, proximal tangency first (provably the earliest event when valid).
     t1, k1 = proximal_tangency(dx, dy, r)
     if k1 <= l1 + RANGE_TOL and in_range(t1, 0.0, math.pi):
         t1 = clamp(t1, 0.0, math.pi)
         k1 = clamp(k1, 0.0, l1)
-        return distal_closes_after_proximal(dx, dy, t1, k1, l1, l2, r, theta2_min, theta2_max)
+        return distal_closes_after_proximal(dx, dy, t1, k1, finger)
 
     # Otherwise the earliest of: distal tangency (3.3), a strike of B, a strike of T.
     best_t1 = math.inf
@@ -104,18 +132,18 @@ def closing_contact(dx, dy, l1, l2, r, theta2_min, theta2_max):
         k1_out = 0.0
         k2_out = l2
     if mode != FREE:
-        return mode, clamp(best_t1, 0.0, math.pi), theta2_min, k1_out, k2_out, False
+        return FingerState(mode, clamp(best_t1, 0.0, math.pi), theta2_min, k1_out, k2_out, False)
 
     # No event before the proximal stop: the distal closes about B with t1 = pi.
     t1 = math.pi
     t2, k2 = distal_tangency(dx, dy, t1, l1, r)
     if k2 <= l2 + RANGE_TOL and in_range(t2, theta2_min, theta2_max):
-        return (DISTAL_ON_PROXIMAL_STOP, t1, clamp(t2, theta2_min, theta2_max), 0.0,
-                clamp(k2, 0.0, l2), False)
+        return FingerState(DISTAL_ON_PROXIMAL_STOP, t1, clamp(t2, theta2_min, theta2_max), 0.0,
+                           clamp(k2, 0.0, l2), False)
     t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
     if in_range(t2_tip, theta2_min, theta2_max):
-        return VERTEX, t1, clamp(t2_tip, theta2_min, theta2_max), 0.0, l2, False
-    return FREE, t1, theta2_max, 0.0, 0.0, False
+        return FingerState(VERTEX, t1, clamp(t2_tip, theta2_min, theta2_max), 0.0, l2, False)
+    return FingerState(FREE, t1, theta2_max, 0.0, 0.0, False)
 
 
 @njit(cache=True)
@@ -130,59 +158,60 @@ def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
 
 
 @njit(cache=True)
-def distal_closes_after_proximal(dx, dy, t1, k1, l1, l2, r, theta2_min, theta2_max):
+def distal_closes_after_proximal(dx, dy, t1, k1, finger):
     """MODEL 4.3: after a proximal contact the distal closes about B with t1 fixed."""
-    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
-    if k2 <= l2 + RANGE_TOL and in_range(t2, theta2_min, theta2_max):
-        return (TWO_PHALANX, t1, clamp(t2, theta2_min, theta2_max), k1, clamp(k2, 0.0, l2),
-                False)
+    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
+    if k2 <= finger.l2 + RANGE_TOL and in_range(t2, finger.theta2_min, finger.theta2_max):
+        return FingerState(TWO_PHALANX, t1, clamp(t2, finger.theta2_min, finger.theta2_max), k1,
+                           clamp(k2, 0.0, finger.l2), False)
     # The distal reaches its limit; the paper keeps this answer even if the tip passes through
     # the part on the way, which is flagged (MODEL 4.3, model-notes D3).
-    t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
-    return PROXIMAL_ONLY, t1, theta2_max, k1, 0.0, in_range(t2_tip, theta2_min, theta2_max)
+    t2_tip = tip_entry_about_distal_joint(dx, dy, t1, finger.l1, finger.l2, finger.r)
+    return FingerState(PROXIMAL_ONLY, t1, finger.theta2_max, k1, 0.0,
+                       in_range(t2_tip, finger.theta2_min, finger.theta2_max))
 
 
 # ---------------------------------------------------------------------------------------------
 # Stick-slip and reconfiguration (MODEL 5)
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max):
+def path_events(t1, t2, k2, finger):
     """Bit mask of the reconfiguration events that hold at a state of the path (model-notes D4)."""
     events = 0
-    if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:
+    if max_torque_balance(k2, t2, finger) >= 0.0:
         events |= STICK
-    if t2 >= theta2_max - RANGE_TOL:
+    if t2 >= finger.theta2_max - RANGE_TOL:
         events |= DISTAL_STOP
     if t1 <= 0.0:
         events |= PROXIMAL_STOP
-    if k2 > l2 + RANGE_TOL:
+    if k2 > finger.l2 + RANGE_TOL:
         events |= SLIP
     return events
 
 
 @njit(cache=True)
-def path_event_mask_at(t1, dx, dy, l1, l2, r1, r2, r, mu, theta2_max):
-    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
-    return path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max)
+def path_event_mask_at(t1, dx, dy, finger):
+    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
+    return path_events(t1, t2, k2, finger)
 
 
 @njit(cache=True)
-def event_margin(event, t1, dx, dy, l1, l2, r1, r2, r, mu, theta2_max):
+def event_margin(event, t1, dx, dy, finger):
     """(holds, margin) of one path event at t1; the margin is continuous in t1 and >= 0 where
     the event holds, so a bracketing root finder can interpolate it."""
-    t2, k2 = distal_tangency(dx, dy, t1, l1, r)
-    holds = (path_events(t1, t2, k2, l1, l2, r1, r2, mu, theta2_max) & event) != 0
+    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
+    holds = (path_events(t1, t2, k2, finger) & event) != 0
     if event == STICK:
-        margin = max_torque_balance(k2, t2, l1, r1, r2, mu)
+        margin = max_torque_balance(k2, t2, finger)
     elif event == DISTAL_STOP:
-        margin = t2 - (theta2_max - RANGE_TOL)
+        margin = t2 - (finger.theta2_max - RANGE_TOL)
     else:  # SLIP
-        margin = k2 - (l2 + RANGE_TOL)
+        margin = k2 - (finger.l2 + RANGE_TOL)
     return holds, margin
 
 
 @njit(cache=True)
-def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, root_tol):
+def event_crossing(event, lo, hi, dx, dy, finger, root_tol):
     """Where an event starts along the path: it holds at lo, not at hi (lo < hi).
 
     Safeguarded Illinois regula falsi on the event margin: every probe lies at least root_tol/2
@@ -191,8 +220,8 @@ def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, roo
     """
     if event == PROXIMAL_STOP:
         return 0.0
-    _, f_lo = event_margin(event, lo, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
-    _, f_hi = event_margin(event, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+    _, f_lo = event_margin(event, lo, dx, dy, finger)
+    _, f_hi = event_margin(event, hi, dx, dy, finger)
     kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
     for it in range(400):  # bounded: at worst every fourth probe halves the bracket
         width = hi - lo
@@ -202,7 +231,7 @@ def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, roo
         if it % 4 != 3 and f_lo != f_hi:
             x = hi - f_hi * width / (f_hi - f_lo)
             x = min(max(x, lo + 0.5 * root_tol), hi - 0.5 * root_tol)
-        holds, f_x = event_margin(event, x, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+        holds, f_x = event_margin(event, x, dx, dy, finger)
         if holds:
             lo = x
             f_lo = f_x
@@ -219,11 +248,12 @@ def event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, roo
 
 
 @njit(cache=True)
-def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_tol):
+def reconfigure(dx, dy, t1_start, finger, solver):
     """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event.
 
-    Returns (mode, t1, t2, k2) with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED.
+    Returns a FingerState with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED.
     """
+    step = solver.reconfig_step
     hi = t1_start
     lo = t1_start
     events = 0
@@ -234,7 +264,7 @@ def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_
         lo = t1_start - n * step
         if lo <= 0.0 or n == n_max:
             lo = 0.0
-        events = path_event_mask_at(lo, dx, dy, l1, l2, r1, r2, r, mu, theta2_max)
+        events = path_event_mask_at(lo, dx, dy, finger)
         if events != 0:
             break
         hi = lo
@@ -242,60 +272,49 @@ def reconfigure(dx, dy, t1_start, l1, l2, r1, r2, r, mu, theta2_max, step, root_
     best_event = PROXIMAL_STOP
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
         if events & event:
-            t_cross = event_crossing(event, lo, hi, dx, dy, l1, l2, r1, r2, r, mu, theta2_max,
-                                     root_tol)
+            t_cross = event_crossing(event, lo, hi, dx, dy, finger, solver.root_tol)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_event = event
     if best_t1 < 0.0:  # unreachable (t1 = 0 is always an event); keep a defined answer
         best_t1 = 0.0
-    t2, k2 = distal_tangency(dx, dy, best_t1, l1, r)
+    t2, k2 = distal_tangency(dx, dy, best_t1, finger.l1, finger.r)
     if best_event == SLIP:
-        return SLIPPED, best_t1, t2, k2
+        return FingerState(SLIPPED, best_t1, t2, 0.0, k2, False)
     # the bracket end may lie past the distal stop by up to root_tol: report the stop itself
-    return DISTAL_ONLY, best_t1, min(t2, theta2_max), k2
+    return FingerState(DISTAL_ONLY, best_t1, min(t2, finger.theta2_max), 0.0, k2, False)
 
 
 @njit(cache=True)
-def settle(mode, t1, t2, k1, k2, dx, dy, l1, l2, r1, r2, r, mu, theta2_max, step, root_tol):
-    """Apply the stick-slip cases to a first contact: the finger's final (mode, t1, t2, k1, k2)."""
+def settle(first, dx, dy, finger, solver):
+    """Apply the stick-slip cases to a first contact: the finger's final FingerState."""
+    mode = first.mode
     if mode == TWO_PHALANX:
-        if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:  # cases 1 and 3
-            return TWO_PHALANX, t1, t2, k1, k2
-        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
-                                    root_tol)
-        return m, t1, t2, 0.0, k2
+        if max_torque_balance(first.k2, first.t2, finger) >= 0.0:  # cases 1 and 3
+            return first
+        return reconfigure(dx, dy, first.t1, finger, solver)
     if mode == DISTAL_ON_LOWER_STOP:
-        mu_stick = friction_for_sticking(t2, mu)
-        if (proximal_torque_balance(k2, t2, l1, r1, r2, mu_stick) >= 0.0
-                and distal_lever(k2, t2, l1, mu_stick) > 0.0):
-            return DISTAL_ONLY, t1, t2, 0.0, k2
-        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
-                                    root_tol)
-        return m, t1, t2, 0.0, k2
+        if sticks_on_lower_stop(first.k2, first.t2, finger):
+            return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
+        return reconfigure(dx, dy, first.t1, finger, solver)
     if mode == DISTAL_ON_PROXIMAL_STOP:
-        if max_torque_balance(k2, t2, l1, r1, r2, mu) >= 0.0:
-            return DISTAL_ONLY, t1, t2, 0.0, k2
-        m, t1, t2, k2 = reconfigure(dx, dy, t1, l1, l2, r1, r2, r, mu, theta2_max, step,
-                                    root_tol)
-        return m, t1, t2, 0.0, k2
-    return mode, t1, t2, k1, k2
+        if max_torque_balance(first.k2, first.t2, finger) >= 0.0:
+            return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
+        return reconfigure(dx, dy, first.t1, finger, solver)
+    return first
 
 
 @njit(cache=True)
-def solve_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol):
-    """The finger's equilibrium configuration: (mode, t1, t2, k1, k2, tip_overlap).
-
-    mode OVERLAP (-1) means the part overlaps the joint (infeasible point).
-    """
-    mode, t1, t2, k1, k2, overlap = closing_contact(dx, dy, l1, l2, r, theta2_min, theta2_max)
-    mode, t1, t2, k1, k2 = settle(mode, t1, t2, k1, k2, dx, dy, l1, l2, r1, r2, r, mu,
-                                  theta2_max, step, root_tol)
-    return mode, t1, t2, k1, k2, overlap
+def solve_finger(dx, dy, finger, solver):
+    """The finger's equilibrium configuration (FingerState); mode OVERLAP (-1) means the part
+    overlaps the joint (infeasible point). tip_overlap is decided by the closing sequence."""
+    first = closing_contact(dx, dy, finger)
+    final = settle(first, dx, dy, finger, solver)
+    return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 
 
 # ---------------------------------------------------------------------------------------------
-# Energy (MODEL 6) and contact forces (MODEL 5.6)
+# Energy (MODEL 6) and contact forces (MODEL 5.1, 5.6)
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
 def finger_energy(t1, t2, r1, r2, tension, theta2_min):
@@ -304,49 +323,104 @@ def finger_energy(t1, t2, r1, r2, tension, theta2_min):
 
 
 @njit(cache=True)
-def contact_forces(mode, t1, t2, k1, k2, l1, r1, r2, mu, tension, theta2_min, theta2_max):
-    """Normal forces and distal friction multiplier (F1, F2, mu2) on the part (MODEL 5.6).
+def contact_count(mode):
+    """Tangent contacts a finger's final mode has with the part (MODEL 7)."""
+    if mode == TWO_PHALANX:
+        return 2
+    if mode == PROXIMAL_ONLY or mode == DISTAL_ONLY:
+        return 1
+    return 0
+
+
+@njit(cache=True)
+def joints_on_limits(state, finger):
+    """How many of the finger's joints rest on a limit (each may carry a stop torque)."""
+    n = 0
+    if state.t1 <= RANGE_TOL or state.t1 >= math.pi - RANGE_TOL:
+        n += 1
+    if state.t2 <= finger.theta2_min + RANGE_TOL or state.t2 >= finger.theta2_max - RANGE_TOL:
+        n += 1
+    return n
+
+
+@njit(cache=True)
+def normal_forces(state, finger):
+    """(F1, F2, mu2) per unit tension (MODEL 5.6): normal forces and the distal multiplier.
 
     mu2 is the least |multiplier| for which the finger's statics hold with every joint-stop torque
     of an admissible sign; the proximal contact's friction exerts no torque and is reported as 0.
     A contact exactly at a joint (k -> 0) carries no determinate force and is reported as 0.
     """
+    mode = state.mode
+    t1 = state.t1
+    t2 = state.t2
+    k1 = state.k1
+    k2 = state.k2
+    l1 = finger.l1
+    r1 = finger.r1
+    r2 = finger.r2
+    mu_s = finger.mu_s
     if mode == PROXIMAL_ONLY:
         if k1 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        return tension * r1 / k1, 0.0, 0.0
+        return r1 / k1, 0.0, 0.0
     if mode == TWO_PHALANX:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t2, l1, r1, r2, 0.0)
+        g0 = proximal_torque_balance(k2, t2, finger, 0.0)
         mu2 = 0.0
         if g0 < 0.0:
-            mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu, mu)
-        f2 = tension * r2 / k2
+            mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu_s, mu_s)
+        f2 = r2 / k2
         f1 = 0.0
         if k1 > RANGE_TOL:
-            f1 = max(tension * proximal_torque_balance(k2, t2, l1, r1, r2, mu2) / (k1 * k2), 0.0)
+            f1 = max(proximal_torque_balance(k2, t2, finger, mu2) / (k1 * k2), 0.0)
         return f1, f2, mu2
     if mode == DISTAL_ONLY:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t2, l1, r1, r2, 0.0)
+        g0 = proximal_torque_balance(k2, t2, finger, 0.0)
         s = math.sin(t2)
-        if t2 <= theta2_min + RANGE_TOL:
+        if t2 <= finger.theta2_min + RANGE_TOL:
             # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; proximal balance gives F2.
             mu2 = 0.0
             if g0 < 0.0 and s != 0.0:
-                mu2 = clamp(-g0 / (r2 * l1 * s), -mu, mu)
-            return 0.0, tension * r1 / distal_lever(k2, t2, l1, mu2), mu2
-        if t2 >= theta2_max - RANGE_TOL:
+                mu2 = clamp(-g0 / (r2 * l1 * s), -mu_s, mu_s)
+            return 0.0, r1 / distal_lever(k2, t2, l1, mu2), mu2
+        if t2 >= finger.theta2_max - RANGE_TOL:
             # On the distal upper stop: stop torque <= 0 needs g(mu) <= 0, true for mu = 0 here.
-            return 0.0, tension * r1 / distal_lever(k2, t2, l1, 0.0), 0.0
+            return 0.0, r1 / distal_lever(k2, t2, l1, 0.0), 0.0
         if t1 <= RANGE_TOL or t1 >= math.pi - RANGE_TOL:
             # On a proximal stop: the stop absorbs the proximal imbalance, no friction needed.
-            return 0.0, tension * r2 / k2, 0.0
+            return 0.0, r2 / k2, 0.0
         # Stuck between stops: g(mu) = 0 fixes the multiplier.
         mu2 = 0.0
         if s != 0.0:
-            mu2 = clamp(-g0 / (r2 * l1 * s), -mu, mu)
-        return 0.0, tension * r2 / k2, mu2
+            mu2 = clamp(-g0 / (r2 * l1 * s), -mu_s, mu_s)
+        return 0.0, r2 / k2, mu2
     return 0.0, 0.0, 0.0
+
+
+@njit(cache=True)
+def finger_statics(state, finger):
+    """Contact forces of a settled finger on the part per unit tension (MODEL 5.1, 5.6), with
+    the resultant in the finger's own frame.
+
+    Determined (model-notes D9) iff the finger is in a static mode (free, proximal-only,
+    two-phalanx, distal-only), no contact sits exactly at a joint, and its contacts plus the joints
+    resting on a limit are at most two: each joint gives one equation (MODEL 5.1), each contact
+    one unknown normal force and each engaged stop one unknown torque.
+    """
+    mode = state.mode
+    f1, f2, mu2 = normal_forces(state, finger)
+    n_contacts = contact_count(mode)
+    proximal = mode == PROXIMAL_ONLY or mode == TWO_PHALANX
+    distal = mode == TWO_PHALANX or mode == DISTAL_ONLY
+    at_joint = (proximal and state.k1 <= RANGE_TOL) or (distal and state.k2 <= RANGE_TOL)
+    determined = mode == FREE or (
+        n_contacts > 0 and not at_joint and n_contacts + joints_on_limits(state, finger) <= 2)
+    # a_y = (-sin t1, cos t1); b_y = (-sin phi, cos phi); the distal tangent rot90(b_y) = -b_x
+    phi = state.t1 + state.t2
+    fx = -f1 * math.sin(state.t1) + f2 * (-math.sin(phi) - mu2 * math.cos(phi))
+    fy = f1 * math.cos(state.t1) + f2 * (math.cos(phi) - mu2 * math.sin(phi))
+    return FingerStatics(f1, f2, mu2, fx, fy, determined)

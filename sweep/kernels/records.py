@@ -1,0 +1,139 @@
+"""The records the kernels pass around: parameters in, results out (docs/architecture.md).
+
+Every record is a flat `typing.NamedTuple`, which Numba compiles as a heterogeneous tuple: its
+fields are read by name inside kernels at no cost, and a record can be captured by a `prange`
+loop (a record nested in another record cannot, a limitation of Numba's parallel lowering, so
+records hold numbers or arrays, never other records).
+
+An *effect* that a scene may switch on (MODEL 9) is a separate argument that is either `None`
+(off) or its own parameter record. Numba compiles one specialisation per combination of argument
+types and prunes `if block is not None:` branches at compile time, so an effect that is off costs
+nothing; `cache=True` caches each specialisation on its own. The same holds for optional outputs:
+the contact-force arrays are `None` unless forces were asked for.
+"""
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+
+class FingerModel(NamedTuple):
+    """One finger closing on the part: geometry, part, joint limits (MODEL 1-5), finger frame."""
+
+    l1: float           # proximal link length
+    l2: float           # distal link length
+    r1: float           # proximal pulley radius
+    r2: float           # distal pulley radius
+    r: float            # part (disc) radius
+    mu_s: float         # static friction coefficient between part and links (0: frictionless)
+    theta2_min: float   # distal joint limits (rad); theta1 is always within [0, pi]
+    theta2_max: float
+
+
+class SolverSettings(NamedTuple):
+    """Accuracy settings of the reconfiguration path (MODEL 5.3, 8)."""
+
+    reconfig_step: float  # step of theta1 along the path before bracketing a stop (rad)
+    root_tol: float       # width to which the stop is bracketed (rad)
+
+
+class Hand(NamedTuple):
+    """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
+
+    w: float
+    f_left: float
+    f_right: float
+    h: float
+
+
+class FingerState(NamedTuple):
+    """The configuration a finger ends in (MODEL 4, 5) and the contact it makes.
+
+    mode is a FINGER_MODE code (or an internal code of kernels.finger before settling); k1 and k2
+    locate the contacts on the proximal and distal link (0 where there is none, model-notes D6).
+    """
+
+    mode: int
+    t1: float
+    t2: float
+    k1: float
+    k2: float
+    tip_overlap: bool
+
+
+class FingerStatics(NamedTuple):
+    """Contact forces of one finger on the part per unit tendon tension (MODEL 5.1, 5.6).
+
+    Normal forces of the proximal and distal contact, the distal contact's tangential multiplier
+    (the proximal one exerts no torque and is 0), the resultant on the part in the finger's own
+    frame, and whether statics determine these forces (model-notes D9).
+    """
+
+    proximal_normal: float
+    distal_normal: float
+    distal_multiplier: float
+    resultant_x: float
+    resultant_y: float
+    determined: bool
+
+
+class FingerArrays(NamedTuple):
+    """Per-finger fields on (finger, y, x): the FingerState of every grid point."""
+
+    mode: np.ndarray         # int8
+    t1: np.ndarray
+    t2: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+    tip_overlap: np.ndarray  # bool
+
+
+class OutcomeArrays(NamedTuple):
+    """Per-point fields of a map on (y, x) (MODEL 7, 8); end_index is the flat index of the
+    point where the trajectory started here ends (-1 where none starts)."""
+
+    energy: np.ndarray
+    point_class: np.ndarray   # int8
+    equilibrium: np.ndarray   # bool
+    contained: np.ndarray     # bool
+    l_open: np.ndarray
+    crossed: np.ndarray       # bool: the fingers' polylines intersect
+    caged: np.ndarray         # bool
+    caging_score: np.ndarray
+    end_state: np.ndarray     # int8
+    end_index: np.ndarray     # int64
+
+
+class ForceArrays(NamedTuple):
+    """Per-finger contact forces on (finger, y, x), per unit tension, world frame resultants."""
+
+    proximal_normal: np.ndarray
+    distal_normal: np.ndarray
+    distal_multiplier: np.ndarray
+    resultant_x: np.ndarray
+    resultant_y: np.ndarray
+    determined: np.ndarray    # bool
+
+
+@njit(cache=True)
+def new_finger_arrays(n_fingers, ny, nx):
+    shape = (n_fingers, ny, nx)
+    return FingerArrays(np.empty(shape, dtype=np.int8), np.empty(shape), np.empty(shape),
+                        np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.bool_))
+
+
+@njit(cache=True)
+def new_outcome_arrays(ny, nx):
+    shape = (ny, nx)
+    return OutcomeArrays(np.empty(shape), np.empty(shape, dtype=np.int8),
+                         np.empty(shape, dtype=np.bool_), np.empty(shape, dtype=np.bool_),
+                         np.empty(shape), np.empty(shape, dtype=np.bool_),
+                         np.empty(shape, dtype=np.bool_), np.empty(shape),
+                         np.empty(shape, dtype=np.int8), np.empty(shape, dtype=np.int64))
+
+
+@njit(cache=True)
+def new_force_arrays(ny, nx):
+    shape = (2, ny, nx)
+    return ForceArrays(np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape),
+                       np.empty(shape), np.empty(shape, dtype=np.bool_))

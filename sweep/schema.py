@@ -1,0 +1,184 @@
+"""The output schema: every per-point field of a map and every per-map summary field, declared once.
+
+A `Field` names a quantity, its dtype, its dimensions, its units and CF attributes, and the
+output it belongs to. The kernels index the summary row by the positions derived here
+(`SUMMARY_INDEX`, frozen into them as constants), `sweep.maps` builds a map's fields from the
+point fields, `sweep.mapfile` and `sweep.store` write them with these attributes, and
+docs/outputs.md is generated from this table (`python -m sweep.schema`).
+
+Outputs (MODEL 9: work only for what is asked): `energy` (configurations, modes, energy, class),
+`equilibrium` (part equilibrium), `caging` (containment, L_open, trajectories, scores) and
+`forces` (contact forces per finger, per unit tension; off unless asked for).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import END_STATE_MEANINGS, FINGER_MODE_MEANINGS, POINT_CLASS_MEANINGS
+
+LENGTH = "length (unitless)"
+MAP_DIMS = ("y", "x")
+FINGER_DIMS = ("finger", "y", "x")
+
+
+@dataclass(frozen=True)
+class Field:
+    """One output quantity: what it is, how it is stored and which output switches it on."""
+
+    name: str
+    dtype: str
+    dims: tuple[str, ...]
+    long_name: str
+    units: str | None = None
+    output: str = "energy"
+    flags: tuple[str, ...] | None = None   # meanings of the codes 0..n-1 (CF flag_meanings)
+    fill: int | None = None                # CF _FillValue of a categorical field
+    comment: str | None = None
+    in_map_file: bool = True
+
+    def attrs(self) -> dict:
+        """CF attributes of the stored variable."""
+        out: dict = dict(long_name=self.long_name)
+        if self.flags is not None:
+            out.update(flag_values=np.arange(len(self.flags), dtype=np.int8),
+                       flag_meanings=" ".join(self.flags))
+        if self.units is not None:
+            out["units"] = self.units
+        if self.fill is not None:
+            out["_FillValue"] = np.dtype(self.dtype).type(self.fill)
+        if self.comment is not None:
+            out["comment"] = self.comment
+        return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Per-point fields of a map, in the order a map file stores them
+# ---------------------------------------------------------------------------------------------
+POINT_FIELDS = (
+    Field("energy", "float64", MAP_DIMS,
+          "system potential energy V_left + V_right (MODEL 6)", "tension x length (unitless)"),
+    Field("point_class", "int8", MAP_DIMS, "class of the grid point (MODEL 8)",
+          flags=POINT_CLASS_MEANINGS),
+    Field("end_state", "int8", MAP_DIMS,
+          "end of the steepest-descent trajectory started here (MODEL 8)", output="caging",
+          flags=END_STATE_MEANINGS),
+    Field("equilibrium", "bool", MAP_DIMS,
+          "part in force equilibrium (cone hull, MODEL 7); computed for reached points only", "1",
+          output="equilibrium"),
+    Field("contained", "bool", MAP_DIMS,
+          "part centre inside J_L B_L T_L T_R B_R J_R (even-odd)", "1", output="caging"),
+    Field("l_open", "float64", MAP_DIMS,
+          "L_open: largest part that could escape between the fingers", LENGTH, output="caging"),
+    Field("caging_score", "float64", MAP_DIMS,
+          "caging score S = 1 - L_open/(2r) where caged, else 0", "1", output="caging"),
+    Field("finger_mode", "int8", FINGER_DIMS, "contact mode the finger ends in (MODEL 4, 5)",
+          flags=FINGER_MODE_MEANINGS, fill=-1, comment="-1 where the point is infeasible"),
+    Field("theta1", "float64", FINGER_DIMS,
+          "proximal joint angle, finger's own (mirrored) frame", "rad"),
+    Field("theta2", "float64", FINGER_DIMS,
+          "distal joint angle, finger's own (mirrored) frame", "rad"),
+    Field("k1", "float64", FINGER_DIMS,
+          "contact distance from the proximal joint on the proximal link; "
+          "0 without a proximal contact", LENGTH),
+    Field("k2", "float64", FINGER_DIMS,
+          "contact distance from the distal joint on the distal link; "
+          "0 without a distal contact", LENGTH),
+    Field("tip_overlap", "bool", FINGER_DIMS,
+          "the distal link passed through the part on its way to its "
+          "limit (paper's answer kept, MODEL 4.3)", "1"),
+    # Computed with trajectories, kept in memory for pictures (sweep.plot), not written.
+    Field("end_index", "int64", MAP_DIMS,
+          "flat (y, x) index of the point where the trajectory started here ends; -1 if none",
+          "1", output="caging", in_map_file=False),
+    # Contact forces (MODEL 5.1, 5.6), only with the `forces` output.
+    Field("proximal_normal_force", "float64", FINGER_DIMS,
+          "normal force of the proximal contact on the part per unit tendon tension (MODEL 5.6); "
+          "0 without a proximal contact", "1", output="forces"),
+    Field("distal_normal_force", "float64", FINGER_DIMS,
+          "normal force of the distal contact on the part per unit tendon tension (MODEL 5.6); "
+          "0 without a distal contact", "1", output="forces"),
+    Field("distal_friction_multiplier", "float64", FINGER_DIMS,
+          "tangential multiplier mu of the distal contact, least |mu| that holds the finger "
+          "(MODEL 5.6); tangent rot90(normal)", "1", output="forces"),
+    Field("resultant_force_x", "float64", FINGER_DIMS,
+          "x component (world frame) of the finger's resultant force on the part per unit "
+          "tendon tension", "1", output="forces"),
+    Field("resultant_force_y", "float64", FINGER_DIMS,
+          "y component of the finger's resultant force on the part per unit tendon tension",
+          "1", output="forces"),
+    Field("forces_determined", "bool", FINGER_DIMS,
+          "the finger's contact forces are fixed by its statics (model-notes D9): static mode, "
+          "no contact at a joint, contacts + joints on a limit <= 2", "1", output="forces"),
+)
+POINT = {f.name: f for f in POINT_FIELDS}
+FORCE_FIELDS = tuple(f.name for f in POINT_FIELDS if f.output == "forces")
+OUTPUTS = ("energy", "equilibrium", "caging", "forces")
+
+# ---------------------------------------------------------------------------------------------
+# Per-map summary fields, in the order of the kernels' summary row and of the stores
+# ---------------------------------------------------------------------------------------------
+_COUNT = "1"
+SUMMARY = (
+    Field("Lambda", "float64", (),
+          "caging metric Lambda_j: sum of the end point's caging score over the "
+          "grid points whose trajectory ends caged (MODEL 8); grows as 1/h^2", "1", "caging"),
+    Field("caging_area", "float64", (),
+          "resolution-independent caging metric Lambda_j * h^2", "length^2 (model units)",
+          "caging"),
+    Field("n_caged", "int32", (), "grid points whose trajectory ends caged", _COUNT, "caging"),
+    Field("n_tip_prehension", "int32", (),
+          "grid points whose trajectory ends in tip prehension", _COUNT, "caging"),
+    Field("n_ejection", "int32", (), "grid points whose trajectory ends in ejection", _COUNT,
+          "caging"),
+    Field("n_stalled", "int32", (), "grid points whose trajectory stalls (no lower neighbour) "
+          "before a stable point", _COUNT, "caging"),
+    Field("n_reached", "int32", (), "grid points of class reached (the set P_j)", _COUNT),
+    Field("n_equilibrium", "int32", (), "grid points where the part is in equilibrium", _COUNT,
+          "equilibrium"),
+    Field("n_vertex", "int32", (),
+          "grid points of class vertex (a finger's vertex strikes the part)", _COUNT),
+    Field("n_tip_overlap", "int32", (), "feasible grid points where a finger is flagged "
+          "tip_overlap (its distal link passed through the part, MODEL 4.3)", _COUNT),
+    Field("n_caged_crossed", "int32", (), "caged grid points whose fingers cross each other",
+          _COUNT, "caging"),
+    Field("n_points", "int32", (), "grid points of the map (whole-reach grid of the design)",
+          _COUNT),
+    Field("n_infeasible", "int32", (),
+          "grid points of class infeasible (part overlaps palm or open fingers)", _COUNT),
+    Field("n_unreached", "int32", (), "grid points of class unreached (both fingers free)",
+          _COUNT),
+    Field("n_eject", "int32", (), "grid points of class eject (a finger slipped)", _COUNT),
+    Field("n_caged_points", "int32", (),
+          "grid points that are caged themselves (stable, contained, L_open < 2r)", _COUNT,
+          "caging"),
+)
+SUMMARY_FIELDS = tuple(f.name for f in SUMMARY)
+SUMMARY_INDEX = {name: k for k, name in enumerate(SUMMARY_FIELDS)}
+COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
+
+
+def markdown_table() -> str:
+    """docs/outputs.md's tables, generated from this module."""
+    lines = ["# Outputs", "",
+             "Generated by `python -m sweep.schema` from `sweep/schema.py`, where every field is "
+             "declared once.", "", "## Per-point fields of a map file", "",
+             "| name | dtype | dims | units | output | meaning |", "|---|---|---|---|---|---|"]
+    for f in POINT_FIELDS:
+        meaning = f.long_name + (f" (codes: {', '.join(f'{k} {m}' for k, m in enumerate(f.flags))})"
+                                 if f.flags else "")
+        if not f.in_map_file:
+            meaning += " (in memory only)"
+        lines.append(f"| `{f.name}` | {f.dtype} | {', '.join(f.dims)} | {f.units or ''} | "
+                     f"{f.output} | {meaning} |")
+    lines += ["", "## Per-map summary fields (map file attributes, store variables)", "",
+              "| name | dtype | units | output | meaning |", "|---|---|---|---|---|"]
+    for f in SUMMARY:
+        lines.append(f"| `{f.name}` | {f.dtype} | {f.units or ''} | {f.output} | "
+                     f"{f.long_name} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":  # pragma: no cover
+    print(markdown_table(), end="")
