@@ -71,8 +71,11 @@ def _check_writable_target(path: Path, option: str) -> None:
               help="Map file to write (HDF5; opens with xarray, engine='h5netcdf').")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=Path),
               default=None, help="Also draw the map to this PNG.")
+@click.option("--forces/--no-forces", default=False, show_default=True,
+              help="Also store each finger's contact forces on the part per unit tendon tension "
+                   "(normal forces, distal friction multiplier, resultant; MODEL 5.1, 5.6).")
 def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
-                theta2_max, reconfig_step, root_tol, threads, out, plot_path):
+                theta2_max, reconfig_step, root_tol, threads, out, plot_path, forces):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
     Per grid point of part centres: finger configurations and modes, energy, class, part
@@ -110,7 +113,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         if time.perf_counter() - started > 2.0:
             click.echo(f"kernels compiled in {time.perf_counter() - started:.1f} s "
                        "(cached for the next run)")
-        m = compute_map(design, part, command, grid, limits, accuracy)
+        m = compute_map(design, part, command, grid, limits, accuracy, forces=forces)
     write_map(out, m)
     click.echo(describe(m))
     click.echo(f"wrote {out}")
