@@ -76,6 +76,34 @@ def g_max(t2: float, k2: float, l1: float, r1: float, r2: float, mu_s: float) ->
 # ---------------------------------------------------------------------------------------------
 # Closed forms (M3) and the vertex entry angle (M4)
 # ---------------------------------------------------------------------------------------------
+def lower_stop_admissible(t2, k2, l1, r1, r2, mu_s):
+    """M5.3 (revised): some |mu| <= mu_s gives g(mu) >= 0 and lever(mu) > 0. Each condition is a
+    half-line of mu (or everything / nothing); intersect the intervals explicitly. At k2 = 0,
+    g = -r2 lever, so the two conditions exclude each other."""
+    if k2 <= 0.0:
+        return False
+    lo, lo_open, hi, hi_open = -mu_s, False, mu_s, False
+    # g(mu) = g0 + a mu >= 0 (closed half-line)
+    g0 = g_of_mu(0.0, t2, k2, l1, r1, r2)
+    a = r2 * l1 * math.sin(t2)
+    if a > 0 and -g0 / a > lo:
+        lo, lo_open = -g0 / a, False
+    elif a < 0 and -g0 / a < hi:
+        hi, hi_open = -g0 / a, False
+    elif a == 0 and g0 < 0:
+        return False
+    # lever(mu) = L0 - b mu > 0 (open half-line)
+    L0 = l1 * math.cos(t2) + k2
+    b = l1 * math.sin(t2)
+    if b > 0 and L0 / b <= hi:
+        hi, hi_open = L0 / b, True
+    elif b < 0 and L0 / b >= lo:
+        lo, lo_open = L0 / b, True
+    elif b == 0 and L0 <= 0:
+        return False
+    return lo < hi or (lo == hi and not lo_open and not hi_open)
+
+
 def proximal_tangency(dx, dy, l1, r):
     """M3.1 with its validity checks. Returns (t1, k1) clamped into range, or None."""
     k1 = tangent_length(dx * dx + dy * dy, r)
@@ -290,9 +318,7 @@ def naive_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
     if kind == EV_DISTAL:                                     # M4.4 / M5.3 first bullet
         k2 = k
         t2 = theta2_min
-        mu_star = mu * float(np.sign(math.sin(t2)))
-        lever = l1 * math.cos(t2) + k2 - mu_star * l1 * math.sin(t2)
-        if g_of_mu(mu_star, t2, k2, l1, r1, r2) >= 0.0 and lever > 0.0:
+        if lower_stop_admissible(t2, k2, l1, r1, r2, mu):
             return _result(DISTAL_ONLY, t1, t2, 0.0, k2)
         return reconfigured(t1)
 

@@ -214,3 +214,21 @@ def test_sweep_map_writes_forces_when_asked(tmp_path):
         assert np.isfinite(ds["resultant_force_y"].values[determined]).all()
     with xr.open_dataset(tmp_path / "n.h5", engine="h5netcdf") as ds:
         assert not set(FORCE_FIELDS) & set(ds.data_vars)
+
+
+from hypothesis import given  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@given(t2=st.floats(-1.5, 0.0), k2=st.one_of(st.just(0.0), st.floats(0.0, 2.0)),
+       l1=st.floats(0.2, 2.0), r1=st.floats(0.01, 0.3), r2=st.floats(0.01, 0.3),
+       mu_s=st.one_of(st.just(0.0), st.floats(0.0, 2.0), st.floats(0.0, 1e3)))
+def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s):
+    """The kernel's closed form of MODEL 5.3 (revised) against the explicit interval
+    intersection of tests/naive.py, friction up to 1000."""
+    from kernel_calls import finger_model
+    from naive import lower_stop_admissible
+    from sweep.kernels.finger import sticks_on_lower_stop
+
+    finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)
+    assert sticks_on_lower_stop(k2, t2, finger) == lower_stop_admissible(t2, k2, l1, r1, r2, mu_s)

@@ -66,21 +66,14 @@ def distal_lever(k2, t2, l1, multiplier):
 def sticks_on_lower_stop(k2, t2, finger):
     """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
     holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
-    positive lever. Both are linear in mu, so the admissible set is an interval; test that it is
-    not empty. The multiplier that maximises g is tried first: it decides every case but one
-    (g holds there, the lever does not: possible only for mu_s > cot|t2|, about 11.4 at -5 deg)."""
+    positive lever L(mu). Since g(mu) = r1 k2 - r2 L(mu), that asks for L(mu) in (0, r1 k2 / r2];
+    L(0) = l1 cos t2 + k2 > 0 on the lower stop, so the set is not empty iff k2 > 0 and the
+    multiplier that maximises g (minimises L) gives g >= 0. Testing L > 0 at that multiplier
+    alone (the first rule) fails for mu_s > cot|t2|, about 11.4 at -5 deg (model-notes D10)."""
     mu_best = friction_for_sticking(t2, finger.mu_s)
     if proximal_torque_balance(k2, t2, finger, mu_best) < 0.0:
         return False  # no multiplier gives g >= 0
-    if distal_lever(k2, t2, finger.l1, mu_best) > 0.0:
-        return True
-    # g >= 0 on the segment from g's root (clamped to the cone) to mu_best; the lever is linear,
-    # so it is positive somewhere on that segment iff it is positive at one of its ends.
-    s = math.sin(t2)
-    g0 = proximal_torque_balance(k2, t2, finger, 0.0)
-    slope_g = finger.r2 * finger.l1 * s
-    mu_g = clamp(-g0 / slope_g, -finger.mu_s, finger.mu_s)  # s != 0 here: mu_best != 0
-    return distal_lever(k2, t2, finger.l1, mu_g) > 0.0
+    return k2 > 0.0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -369,7 +362,7 @@ def normal_forces(state, finger):
             return 0.0, 0.0, 0.0
         g0 = proximal_torque_balance(k2, t2, finger, 0.0)
         mu2 = 0.0
-        if g0 < 0.0:
+        if g0 < 0.0 and math.sin(t2) != 0.0:
             mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu_s, mu_s)
         f2 = r2 / k2
         f1 = 0.0
@@ -391,8 +384,13 @@ def normal_forces(state, finger):
             # On the distal upper stop: stop torque <= 0 needs g(mu) <= 0, true for mu = 0 here.
             return 0.0, r1 / distal_lever(k2, t2, l1, 0.0), 0.0
         if t1 <= RANGE_TOL or t1 >= math.pi - RANGE_TOL:
-            # On a proximal stop: the stop absorbs the proximal imbalance, no friction needed.
-            return 0.0, r2 / k2, 0.0
+            # On a proximal stop, which takes the imbalance -g(mu)/k2 per unit tension: the lower
+            # stop (t1 = 0) only pushes closed, needing g(mu) <= 0; the upper (t1 = pi) only
+            # opens, needing g(mu) >= 0. Least |mu| with the right sign of g.
+            mu2 = 0.0
+            if s != 0.0 and ((t1 <= RANGE_TOL and g0 > 0.0) or (t1 > RANGE_TOL and g0 < 0.0)):
+                mu2 = clamp(-g0 / (r2 * l1 * s), -mu_s, mu_s)
+            return 0.0, r2 / k2, mu2
         # Stuck between stops: g(mu) = 0 fixes the multiplier.
         mu2 = 0.0
         if s != 0.0:
