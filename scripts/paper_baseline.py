@@ -3,7 +3,7 @@
 For every grid point and each finger, the vector-loop equations of the paper (eq. "proximal vector
 loop" and "distal vector loop") are solved by ``scipy.optimize.least_squares`` on their residual,
 with bounds from the joint limits and the link lengths; a loop is *satisfied* when the residual norm
-left by the solver is below ``RES_TOL`` (1e-9) inside the bounds. No closed form of MODEL.md 3 is
+left by the solver is below ``RES_TOL`` (1e-9) inside the bounds. No closed form of docs/model.md 3 is
 used. On top of these solves the closing sequence (MODEL 4), the stick-slip cases and the
 reconfiguration (MODEL 5, docs/model-notes.md D4: step ``t1`` down, solve the distal loop by
 least squares at every node, then bisect), the energy (MODEL 6) and the point classes (MODEL 8) are

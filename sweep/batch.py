@@ -10,8 +10,15 @@ import numpy as np
 
 from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
 from .kernels.records import Hand
-from .maps import (finger_offsets, grid_index_bounds, kernel_records, map_fields, map_grid,
-                   palm_half_width_steps, summary_attrs)
+from .maps import (
+    finger_offsets,
+    grid_index_bounds,
+    kernel_records,
+    map_fields,
+    map_grid,
+    palm_half_width_steps,
+    summary_attrs,
+)
 from .model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from .schema import SUMMARY_FIELDS
 
@@ -41,7 +48,8 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     if cells.shape[0] == 0 or widths.size == 0:
         return out
     steps = [palm_half_width_steps(w, h) for w in widths]
-    _, solver = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy, effects)
+    _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
+                                       effects)
     th2min, th2max = limits.theta2_min, limits.theta2_max
     if all(s is not None for s in steps):
         # whole-reach grids: columns -N..N, rows 0..M (sized without allocating them)
@@ -50,17 +58,18 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
         ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
-                               command.f_left, command.f_right, th2min, th2max, solver, out)
+                               command.f_left, command.f_right, th2min, th2max, solver, blocks,
+                               out)
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
             design, part = _cell_design_part(cells[c], w)
-            finger, _ = kernel_records(design, part, limits, accuracy, effects)
+            finger, _, _ = kernel_records(design, part, limits, accuracy, effects)
             g = map_grid(design, part, Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
-            summarize_direct_map(finger, solver, Hand(float(w), command.f_left, command.f_right,
-                                                      float(h)),
-                                 dx_left, dx_right, g.x, g.y, out[c, k])
+            hand = Hand(float(w), command.f_left, command.f_right, float(h))
+            summarize_direct_map(finger, solver, blocks, hand, dx_left, dx_right, g.x, g.y,
+                                 out[c, k])
     return out
 
 
@@ -74,10 +83,10 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     step = palm_half_width_steps(float(w), h)
     if step is None:
         raise ModelInputError(f"w = {w} is not a whole number of grid steps 2h = {2 * h}")
-    finger, solver = kernel_records(design, part, limits, accuracy, effects)
+    finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
     xs, ys, fingers, outs, force_arrays, summary = cell_map(
-        finger, solver, float(w), step, i1, j1 + 1, float(h), float(command.f_left),
+        finger, solver, blocks, float(w), step, i1, j1 + 1, float(h), float(command.f_left),
         float(command.f_right), True, forces)
     return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
         summary_attrs(summary)

@@ -12,6 +12,7 @@ from .maps import EnergyMap
 from .model import FINGER_NAMES
 from .schema import POINT_FIELDS
 
+
 def map_root_attrs(m: EnergyMap) -> dict:
     attrs = dict(
         title="friction-based potential energy map (sweep)",

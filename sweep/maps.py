@@ -13,11 +13,31 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .kernels.field import finger_field, map_from_fingers
-from .kernels.records import (FingerArrays, FingerModel, ForceArrays, Hand, OutcomeArrays,
-                              SolverSettings, new_finger_arrays, new_force_arrays,
-                              new_outcome_arrays)
-from .model import (GRID_TOL, Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError,
-                    Part, validate_inputs)
+from .kernels.records import (
+    NO_EFFECTS,
+    EffectBlocks,
+    FingerArrays,
+    FingerModel,
+    ForceArrays,
+    Hand,
+    OutcomeArrays,
+    SolverSettings,
+    new_finger_arrays,
+    new_force_arrays,
+    new_outcome_arrays,
+)
+from .model import (
+    GRID_TOL,
+    Accuracy,
+    Command,
+    Design,
+    Effects,
+    Grid,
+    Limits,
+    ModelInputError,
+    Part,
+    validate_inputs,
+)
 from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS
 
 # Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
@@ -154,12 +174,14 @@ class EnergyMap:
 
 
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
-                   effects: Effects) -> tuple[FingerModel, SolverSettings]:
-    """The kernels' parameter records of a map (one place: the map and the sweep paths)."""
+                   effects: Effects) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
+    """The kernels' parameter records of a map (one place: the map and the sweep paths).
+    An effect that is off is None in EffectBlocks (compiled out of the kernels)."""
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
-    return finger, SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    return finger, solver, NO_EFFECTS  # only the base model so far (model.IMPLEMENTED_EFFECTS)
 
 
 def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
@@ -194,22 +216,21 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     validate_inputs(design, part, command, limits, accuracy, effects)
     g = map_grid(design, part, grid)
     ny, nx = g.shape
-    finger, solver = kernel_records(design, part, limits, accuracy, effects)
+    finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     started = time.perf_counter()
 
     fingers = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
     for side, dxs in ((0, dx_left), (1, dx_right)):
-        finger_field(dxs, g.y, finger, solver, fingers, side)
+        finger_field(dxs, g.y, finger, solver, blocks, fingers, side)
     solved = time.perf_counter()
 
     outs = new_outcome_arrays(ny, nx)
     force_arrays = new_force_arrays(ny, nx) if forces else None
     summary = np.empty(len(SUMMARY_FIELDS))
-    map_from_fingers(g.x, g.y, finger, Hand(float(design.w), float(command.f_left),
-                                            float(command.f_right), float(g.h)),
-                     fingers, outs, force_arrays, np.empty(ny * nx, dtype=np.int64), summary,
-                     True)
+    hand = Hand(float(design.w), float(command.f_left), float(command.f_right), float(g.h))
+    map_from_fingers(g.x, g.y, finger, hand, blocks, fingers, outs, force_arrays,
+                     np.empty(ny * nx, dtype=np.int64), summary, True)
     finished = time.perf_counter()
 
     attrs = summary_attrs(summary)

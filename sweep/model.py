@@ -1,4 +1,4 @@
-"""The model's vocabulary: parameters, categorical codes and numeric tolerances (MODEL.md 1, 5.5, 8).
+"""The model's vocabulary: parameters, categorical codes, tolerances (docs/model.md 1, 5.5, 8).
 
 Everything here is plain Python. Kernels receive these values as arguments (never read module
 globals at run time except the integer codes and the true constants below, which Numba freezes at

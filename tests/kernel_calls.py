@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from sweep.kernels.finger import closing_contact, reconfigure, solve_finger
-from sweep.kernels.records import FingerModel, SolverSettings
+from sweep.kernels.records import NO_EFFECTS, FingerModel, SolverSettings
 
 
 def finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max) -> FingerModel:
@@ -14,17 +14,18 @@ def solve(dx, dy, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, root_to
     """solve_finger -> (mode, t1, t2, k1, k2, tip_overlap)."""
     return solve_finger(float(dx), float(dy),
                         finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max),
-                        SolverSettings(float(step), float(root_tol)))
+                        SolverSettings(float(step), float(root_tol)), NO_EFFECTS)
 
 
 def closing(dx, dy, l1, l2, r, theta2_min, theta2_max):
     """closing_contact (geometry only) -> (mode, t1, t2, k1, k2, tip_overlap)."""
     return closing_contact(float(dx), float(dy),
-                           finger_model(l1, l2, 1.0, 1.0, r, 0.0, theta2_min, theta2_max))
+                           finger_model(l1, l2, 1.0, 1.0, r, 0.0, theta2_min, theta2_max),
+                           NO_EFFECTS)
 
 
 def reconfig(dx, dy, t1, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, root_tol):
     """reconfigure -> (mode, t1, t2, k1, k2, tip_overlap)."""
     return reconfigure(float(dx), float(dy), float(t1),
                        finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max),
-                       SolverSettings(float(step), float(root_tol)))
+                       SolverSettings(float(step), float(root_tol)), NO_EFFECTS)

@@ -1,9 +1,10 @@
 """Slow, independent reference implementation of the model, for the tests.
 
-Written straight from ``/work/shared/MODEL.md`` and ``docs/model-notes.md`` (D1-D7) without
-looking at the fast kernels. Plain Python + math + NumPy; readability over speed: this file is
-the specification in executable form. Section numbers below refer to MODEL.md ("M3.1") and to
-the model notes ("D4").
+Written straight from the model (``docs/model.md``, which keeps the section numbers of the
+project's authoritative MODEL.md) and ``docs/model-notes.md`` (D1-D10) without looking at the
+fast kernels. Plain Python + math + NumPy; readability over speed: this file is the specification
+in executable form. Section numbers below refer to docs/model.md ("M3.1") and to the model notes
+("D4").
 
 Frames (M2): a finger is solved in the RIGHT finger's frame, ``d = p - J_R``; the left finger uses
 the mirrored offset and its angles/contact lengths are reported in its own mirrored frame.

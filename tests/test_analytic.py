@@ -1,4 +1,4 @@
-"""Cases worked by hand from MODEL.md formulas, checked against the kernels."""
+"""Cases worked by hand from the formulas of docs/model.md, checked against the kernels."""
 import math
 
 import numpy as np

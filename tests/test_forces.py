@@ -6,12 +6,22 @@ import math
 
 import numpy as np
 import pytest
-
 from kernel_calls import closing, solve
+
 from sweep.batch import cell_map_fields
 from sweep.maps import compute_map
-from sweep.model import (DISTAL_ONLY, FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Command,
-                         Design, Grid, Limits, Part)
+from sweep.model import (
+    DISTAL_ONLY,
+    FREE,
+    PROXIMAL_ONLY,
+    TWO_PHALANX,
+    Accuracy,
+    Command,
+    Design,
+    Grid,
+    Limits,
+    Part,
+)
 from sweep.schema import FORCE_FIELDS
 
 TH2MIN, TH2MAX = math.radians(-5.0), math.radians(90.0)
@@ -228,6 +238,7 @@ def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s
     intersection of tests/naive.py, friction up to 1000."""
     from kernel_calls import finger_model
     from naive import lower_stop_admissible
+
     from sweep.kernels.finger import sticks_on_lower_stop
 
     finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)

@@ -78,3 +78,11 @@ def test_store_is_unchanged(tmp_path):
     for name in saved:
         assert_same_file(tmp_path / "store_small.h5.maps" / name,
                          GOLDEN / "store_small.h5.maps" / name)
+
+
+def test_outputs_doc_is_generated_from_the_schema():
+    """docs/outputs.md is `python -m sweep.schema`'s output: the docs read the one schema."""
+    from sweep.schema import markdown_table
+
+    assert (ROOT / "docs" / "outputs.md").read_text() == markdown_table(), \
+        "regenerate with: .venv/bin/python -m sweep.schema > docs/outputs.md"

@@ -11,8 +11,14 @@ import numpy as np
 from numba import njit, prange
 
 from .field import N_SUMMARY, finger_field_serial, map_from_fingers
-from .records import (FingerModel, Hand, new_finger_arrays, new_force_arrays,
-                      new_outcome_arrays)
+from .records import (
+    EffectBlocks,
+    FingerModel,
+    Hand,
+    new_finger_arrays,
+    new_force_arrays,
+    new_outcome_arrays,
+)
 
 
 @njit(cache=True)
@@ -27,7 +33,7 @@ def shared_field_extent(steps, ncols):
 
 
 @njit(cache=True)
-def shared_finger_field(finger, solver, steps, ncols, ny, h):
+def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
     """The right finger's field over every offset any width of the cell needs."""
     m_lo, nm = shared_field_extent(steps, ncols)
     dxs = np.empty(nm)
@@ -37,7 +43,7 @@ def shared_finger_field(finger, solver, steps, ncols, ny, h):
     for j in range(ny):
         ys[j] = finger.r + j * h
     shared = new_finger_arrays(1, ny, nm)
-    finger_field_serial(dxs, ys, finger, solver, shared, 0)
+    finger_field_serial(dxs, ys, finger, solver, effects, shared, 0)
     return shared, m_lo, ys
 
 
@@ -66,19 +72,19 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
 
 
 @njit(cache=True)
-def summarize_cell(finger, solver, ws, steps, ncols, ny, h, f_left, f_right, out):
+def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out):
     """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
     i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1.
     """
-    shared, m_lo, ys = shared_finger_field(finger, solver, steps, ncols, ny, h)
+    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-        map_from_fingers(xs, ys, finger, Hand(ws[k], f_left, f_right, h), fingers, outs, None,
-                         stack, out[k], False)  # summaries only
+        map_from_fingers(xs, ys, finger, Hand(ws[k], f_left, f_right, h), effects, fingers, outs,
+                         None, stack, out[k], False)  # summaries only
 
 
 @njit(cache=True)
@@ -89,44 +95,47 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @njit(cache=True, parallel=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, out):
+                           theta2_max, solver, effects, out):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu."""
+    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
     for c in prange(cells.shape[0]):
-        summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver, ws, steps,
-                       ncols[c], nys[c], h, f_left, f_right, out[c])
+        summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
+                       EffectBlocks(tip, springs, collision), ws, steps, ncols[c], nys[c], h,
+                       f_left, f_right, out[c])
 
 
 @njit(cache=True)
-def cell_map(finger, solver, w, step, ncol, ny, h, f_left, f_right, every_point, with_forces):
+def cell_map(finger, solver, effects, w, step, ncol, ny, h, f_left, f_right, every_point,
+             with_forces):
     """The full map of one width of a cell through the shared-field path (per-point outputs of
     the sweep path): (xs, ys, fingers, outcomes, forces, summary row); the force arrays are
     empty unless with_forces."""
     steps = np.array([step])
     ncols = np.array([ncol])
-    shared, m_lo, ys = shared_finger_field(finger, solver, steps, ncols, ny, h)
+    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
     xs, fingers = gather_fingers(shared, m_lo, step, ncol, ny, h)
     outs = new_outcome_arrays(ny, xs.shape[0])
     stack = np.empty(ny * xs.shape[0], dtype=np.int64)
     summary = np.empty(N_SUMMARY)
     if with_forces:
         forces = new_force_arrays(ny, xs.shape[0])
-        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), fingers, outs, forces,
-                         stack, summary, every_point)
+        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), effects, fingers, outs,
+                         forces, stack, summary, every_point)
     else:
         forces = new_force_arrays(0, 0)  # same return type either way
-        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), fingers, outs, None,
-                         stack, summary, every_point)
+        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), effects, fingers, outs,
+                         None, stack, summary, every_point)
     return xs, ys, fingers, outs, forces, summary
 
 
 @njit(cache=True)
-def summarize_direct_map(finger, solver, hand, dx_left, dx_right, xs, ys, out):
+def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, ys, out):
     """One map with each finger solved at its own offsets (palm half-width off the grid)."""
     ny = ys.shape[0]
     nx = xs.shape[0]
     fingers = new_finger_arrays(2, ny, nx)
-    finger_field_serial(dx_left, ys, finger, solver, fingers, 0)
-    finger_field_serial(dx_right, ys, finger, solver, fingers, 1)
+    finger_field_serial(dx_left, ys, finger, solver, effects, fingers, 0)
+    finger_field_serial(dx_right, ys, finger, solver, effects, fingers, 1)
     outs = new_outcome_arrays(ny, nx)
     stack = np.empty(ny * nx, dtype=np.int64)
-    map_from_fingers(xs, ys, finger, hand, fingers, outs, None, stack, out, False)
+    map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out, False)

@@ -13,14 +13,26 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from ..model import (EJECT, END_CAGED, END_EJECTION, END_NONE, END_STALLED, END_TIP_PREHENSION,
-                     FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX,
-                     VERTEX_POINT)
+from ..model import (
+    EJECT,
+    END_CAGED,
+    END_EJECTION,
+    END_NONE,
+    END_STALLED,
+    END_TIP_PREHENSION,
+    FREE,
+    INFEASIBLE,
+    RANGE_TOL,
+    REACHED,
+    SLIPPED,
+    UNREACHED,
+    VERTEX,
+    VERTEX_POINT,
+)
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
-from .records import FingerState
-from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   tip_clearance)
+from .part import finger_polyline, fingers_cross, part_contained, part_in_equilibrium, tip_clearance
+from .records import EffectBlocks, FingerState
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
 N_SUMMARY = len(SUMMARY_FIELDS)
@@ -47,11 +59,11 @@ SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edg
 # Finger fields
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def finger_row(j, dxs, dy, finger, solver, fingers, side):
+def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
     """Solve one finger at every column offset dxs[i] of row j (part centre at (dxs[i], dy))
     into fingers[side]."""
     for i in range(dxs.shape[0]):
-        s = solve_finger(dxs[i], dy, finger, solver)
+        s = solve_finger(dxs[i], dy, finger, solver, effects)
         fingers.mode[side, j, i] = s.mode
         fingers.t1[side, j, i] = s.t1
         fingers.t2[side, j, i] = s.t2
@@ -61,16 +73,18 @@ def finger_row(j, dxs, dy, finger, solver, fingers, side):
 
 
 @njit(cache=True, parallel=True)
-def finger_field(dxs, dys, finger, solver, fingers, side):
+def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
+    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
     for j in prange(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver, fingers, side)
+        finger_row(j, dxs, dys[j], finger, solver, EffectBlocks(tip, springs, collision),
+                   fingers, side)
 
 
 @njit(cache=True)
-def finger_field_serial(dxs, dys, finger, solver, fingers, side):
+def finger_field_serial(dxs, dys, finger, solver, effects, fingers, side):
     for j in range(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver, fingers, side)
+        finger_row(j, dxs, dys[j], finger, solver, effects, fingers, side)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -325,7 +339,8 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # The map pipeline
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def map_from_fingers(xs, ys, finger, hand, fingers, outs, forces, stack, summary, every_point):
+def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
+                     every_point):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
     summary row. Serial: one map's outcomes cost a few percent of its finger fields."""
     scratch = np.empty(SCRATCH_ANGLES)

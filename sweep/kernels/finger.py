@@ -12,10 +12,17 @@ import math
 
 from numba import njit
 
-from ..model import (DISTAL_ONLY, FREE, PROXIMAL_ONLY, RANGE_TOL, SLIPPED, TWO_PHALANX,
-                     VERTEX)
-from .geometry import (clamp, distal_tangency, in_range, proximal_tangency,
-                       rigid_distal_tangency, tangent_length, vertex_entry, wrap_angle)
+from ..model import DISTAL_ONLY, FREE, PROXIMAL_ONLY, RANGE_TOL, SLIPPED, TWO_PHALANX, VERTEX
+from .geometry import (
+    clamp,
+    distal_tangency,
+    in_range,
+    proximal_tangency,
+    rigid_distal_tangency,
+    tangent_length,
+    vertex_entry,
+    wrap_angle,
+)
 from .records import FingerState, FingerStatics
 
 # Internal modes of a first contact that still has to be settled (never stored).
@@ -80,7 +87,7 @@ def sticks_on_lower_stop(k2, t2, finger):
 # Closing sequence (MODEL 4): geometry only
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def closing_contact(dx, dy, finger):
+def closing_contact(dx, dy, finger, effects):
     """First contact of the closing sequence, as a FingerState whose mode is FREE,
     PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
     DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint)."""
@@ -141,7 +148,8 @@ def closing_contact(dx, dy, finger):
 
 @njit(cache=True)
 def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
-    """Relative angle t2 at which the tip, turning about B with t1 fixed, enters the disc (or inf)."""
+    """Relative angle t2 at which the tip, turning about B with t1 fixed, enters the disc (inf:
+    never)."""
     ex = dx - l1 * math.cos(t1)
     ey = dy - l1 * math.sin(t1)
     phi = vertex_entry(ex, ey, l2, 0.0, r)
@@ -241,7 +249,7 @@ def event_crossing(event, lo, hi, dx, dy, finger, root_tol):
 
 
 @njit(cache=True)
-def reconfigure(dx, dy, t1_start, finger, solver):
+def reconfigure(dx, dy, t1_start, finger, solver, effects):
     """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event.
 
     Returns a FingerState with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED.
@@ -279,30 +287,31 @@ def reconfigure(dx, dy, t1_start, finger, solver):
 
 
 @njit(cache=True)
-def settle(first, dx, dy, finger, solver):
+def settle(first, dx, dy, finger, solver, effects):
     """Apply the stick-slip cases to a first contact: the finger's final FingerState."""
     mode = first.mode
     if mode == TWO_PHALANX:
         if max_torque_balance(first.k2, first.t2, finger) >= 0.0:  # cases 1 and 3
             return first
-        return reconfigure(dx, dy, first.t1, finger, solver)
+        return reconfigure(dx, dy, first.t1, finger, solver, effects)
     if mode == DISTAL_ON_LOWER_STOP:
         if sticks_on_lower_stop(first.k2, first.t2, finger):
             return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
-        return reconfigure(dx, dy, first.t1, finger, solver)
+        return reconfigure(dx, dy, first.t1, finger, solver, effects)
     if mode == DISTAL_ON_PROXIMAL_STOP:
         if max_torque_balance(first.k2, first.t2, finger) >= 0.0:
             return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
-        return reconfigure(dx, dy, first.t1, finger, solver)
+        return reconfigure(dx, dy, first.t1, finger, solver, effects)
     return first
 
 
 @njit(cache=True)
-def solve_finger(dx, dy, finger, solver):
+def solve_finger(dx, dy, finger, solver, effects):
     """The finger's equilibrium configuration (FingerState); mode OVERLAP (-1) means the part
-    overlaps the joint (infeasible point). tip_overlap is decided by the closing sequence."""
-    first = closing_contact(dx, dy, finger)
-    final = settle(first, dx, dy, finger, solver)
+    overlaps the joint (infeasible point). tip_overlap is decided by the closing sequence.
+    `effects` is an EffectBlocks record (records.NO_EFFECTS: the paper's model)."""
+    first = closing_contact(dx, dy, finger, effects)
+    final = settle(first, dx, dy, finger, solver, effects)
     return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 
 
@@ -375,7 +384,8 @@ def normal_forces(state, finger):
         g0 = proximal_torque_balance(k2, t2, finger, 0.0)
         s = math.sin(t2)
         if t2 <= finger.theta2_min + RANGE_TOL:
-            # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; proximal balance gives F2.
+            # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; the proximal balance
+            # gives F2.
             mu2 = 0.0
             if g0 < 0.0 and s != 0.0:
                 mu2 = clamp(-g0 / (r2 * l1 * s), -mu_s, mu_s)

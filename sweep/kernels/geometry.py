@@ -47,7 +47,8 @@ def clamp(value, lower, upper):
 
 @njit(cache=True)
 def proximal_tangency(dx, dy, r):
-    """MODEL 3.1: (t1, k1) of the proximal link tangent to the part; k1 < 0 if d is inside the disc."""
+    """MODEL 3.1: (t1, k1) of the proximal link tangent to the part; k1 < 0 if d is inside the
+    disc."""
     k1 = tangent_length(dx * dx + dy * dy, r)
     if k1 < 0.0:
         return NO_ANGLE, -1.0

@@ -7,7 +7,7 @@ import math
 
 from numba import njit
 
-from ..model import (DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX)
+from ..model import DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX
 
 TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or segments touch
 
@@ -34,7 +34,8 @@ def add_contact(angles, n, normal_angle, cone_half_angle):
 
 @njit(cache=True)
 def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
-    """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the left)."""
+    """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the
+    left)."""
     if mode == PROXIMAL_ONLY or mode == TWO_PHALANX:
         a = t1 + 0.5 * math.pi  # angle of a_y in the finger frame
         n = add_contact(angles, n, a if side == 1 else math.pi - a, cone_half_angle)

@@ -37,6 +37,24 @@ class SolverSettings(NamedTuple):
     root_tol: float       # width to which the stop is bracketed (rad)
 
 
+class EffectBlocks(NamedTuple):
+    """The parameter block of every effect a scene may switch on (MODEL 9), None when off.
+
+    Numba compiles one specialisation per combination of block types, and a kernel asks for an
+    effect only through a small function taking the block as an argument and testing
+    `block is None`, a test Numba resolves at compile time: an effect that is off costs nothing.
+    A parallel driver takes the record, reads its blocks into locals before its `prange` loop and
+    rebuilds it inside (a `prange` loop cannot capture a record holding records or None).
+    """
+
+    tip_contact: object       # None (the paper's model: vertex strikes are left unresolved)
+    joint_springs: object     # None (springs only order the closing)
+    finger_collision: object  # None (the paper's fingers pass through each other)
+
+
+NO_EFFECTS = EffectBlocks(None, None, None)
+
+
 class Hand(NamedTuple):
     """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
 
