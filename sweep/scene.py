@@ -33,8 +33,11 @@ import numpy as np
 import yaml
 
 from . import __version__
+from .batch import CELL_COLUMNS
+from .maps import BYTES_PER_POINT, grid_index_bounds
 from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
-                    Command, Design, Effects, Limits, ModelInputError, Part, validate_inputs)
+                    Command, Design, Effects, Grid, Limits, ModelInputError, Part,
+                    validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -141,8 +144,6 @@ class Scene:
     def cells(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
         """Items [start, stop) as `sweep.batch` cells: float64 (n, 6) in CELL_COLUMNS order
         (l1, l2, r1, r2, r, mu), and the command index of each item (int64)."""
-        from .batch import CELL_COLUMNS
-
         ix = self.item_indices(start, stop)
         cols = [np.asarray(self.values[c], dtype=np.float64)[ix[c]] for c in CELL_COLUMNS]
         cells = np.stack(cols, axis=1) if cols[0].size else np.zeros((0, len(CELL_COLUMNS)))
@@ -201,9 +202,6 @@ class Scene:
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     """Points of the default whole-reach grid of one map (MODEL 8; as `sweep.maps.map_grid`)."""
-    from .maps import grid_index_bounds
-    from .model import Grid
-
     try:
         i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
     except ModelInputError:
@@ -456,8 +454,6 @@ def _commands(spec) -> tuple[Command, ...]:
 
 
 def _check_memory(values: dict, h: float) -> None:
-    from .maps import BYTES_PER_POINT
-
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
     points = grid_points(l1, l2, w, r, h)
     need = points * BYTES_PER_POINT
