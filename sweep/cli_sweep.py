@@ -34,7 +34,11 @@ class SceneParam(click.ParamType):
         try:
             scene = load_scene(value)
         except ModelInputError as exc:
-            self.fail(str(exc), param, ctx)
+            # a bad config is not a usage mistake: one line naming the file and key, exit 2
+            msg = str(exc)
+            if not msg.startswith((str(value), Path(value).name)):
+                msg = f"{value}: {msg}"
+            raise UserError(msg) from None
         return scene
 
 

@@ -73,7 +73,9 @@ def os_errors_named(path: Path, doing: str = "cannot write"):
     except OutputError:
         raise
     except OSError as exc:
-        raise OutputError(os_error_message(exc, path, doing)) from None
+        err = OutputError(os_error_message(exc, path, doing))
+        err.errno = exc.errno           # callers may add advice (e.g. on ENOSPC)
+        raise err from None
 
 
 # ---------------------------------------------------------------------------------------------
@@ -210,10 +212,14 @@ class OutputLock:
         info = dict(host=HOST, pid=os.getpid(), command=" ".join(sys.argv[:1] + sys.argv[1:]),
                     since=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
         try:
-            os.write(fd, json.dumps(info).encode())
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+            try:
+                os.write(fd, json.dumps(info).encode())
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        except OSError:
+            self.path.unlink()          # a full disk must not leave an empty lock behind
+            raise
         return True
 
     def _remove_if_stale(self, holder: dict | None) -> bool:
