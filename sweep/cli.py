@@ -7,7 +7,7 @@ Only click is imported at start-up, so Ctrl-C in the first second is handled lik
 from __future__ import annotations
 
 import contextlib
-import sys
+import signal
 import time
 from pathlib import Path
 
@@ -124,5 +124,18 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 for _command in SWEEP_COMMANDS:
     main.add_command(_command)
 
+
+def entry_point(argv=None):
+    """The `sweep` program. Once the command has finished (its result written or its error
+    reported), Ctrl-C and SIGTERM are ignored while the interpreter shuts down, so that a late
+    signal cannot turn a finished run into a death by signal."""
+    try:
+        main(args=argv, prog_name="sweep")
+    finally:
+        with contextlib.suppress(ValueError):       # not the main thread
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry_point()

@@ -8,6 +8,7 @@ argument's type, before anything is written; errors reach the user through
 """
 from __future__ import annotations
 
+import errno
 import shutil
 import sys
 from pathlib import Path
@@ -87,6 +88,7 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
     SLURM_ARRAY_TASK_ID or PBS_ARRAY_INDEX (0..N-1), SGE_TASK_ID or LSB_JOBINDEX (1..N).
     """
     from . import runner
+    from .outputs import OutputError
     from .rundir import RunDir, SingleRun
 
     scene = config
@@ -124,6 +126,12 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
         click.echo(interrupted_message(exc, f"finished sub-chunks are kept in {where}; rerun "
                                             "the same command to resume"), err=True)
         sys.exit(EXIT_INTERRUPTED)
+    except OutputError as exc:
+        where = SingleRun(out).parts if chunks is None else RunDir(out).parts_root
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT) and where.exists():
+            raise UserError(f"{exc}; finished sub-chunks are kept in {where}: free space, then "
+                            "rerun the same command to resume") from None
+        raise
     if res.already_done:
         click.echo(f"{res.path} is already complete ({res.n_maps:,} maps, config "
                    f"{scene.config_hash[:12]}); nothing to do")

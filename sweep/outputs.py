@@ -226,7 +226,7 @@ class OutputLock:
         """Remove the lock if its holder is a dead process of this host. True if removed."""
         if not holder or holder.get("host") != HOST or not isinstance(holder.get("pid"), int):
             return False
-        if _alive(holder["pid"]) and holder["pid"] != os.getpid():
+        if _alive(holder["pid"]):
             return False
         # Move it aside first, so two processes that both found it stale cannot both remove a
         # lock that a third has just created.
