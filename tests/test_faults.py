@@ -10,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import random
 import shutil
 import signal
 import socket
@@ -320,3 +321,61 @@ def test_show_says_what_a_map_file_is(tmp_path):
     res = invoke("show", out)
     assert res.exit_code == 0 and "one energy map" in res.output and "unknown" not in res.output
     assert "l1 2, l2 1.6" in res.output
+
+
+# ---------------------------------------------------------------------------------------------
+# Fault injection: SIGKILL at random points
+# ---------------------------------------------------------------------------------------------
+KILL_SEED = 20261123
+#: Kills per command (bounded), and the window (seconds after start) each kill lands in: from
+#: inside the imports to about the end of the command on configs/small.yaml, so that start-up,
+#: compute, part writes and the final assembly can all be hit.
+KILLS_PER_COMMAND = 3
+KILL_WINDOWS = {"run": (0.1, 1.6), "chunk": (0.1, 1.2), "merge": (0.1, 0.8)}
+
+
+def _variables(path: Path) -> dict:
+    with h5py.File(path, "r") as f:
+        return {name: (f[name].dtype.str, f[name].shape, f[name][...].tobytes())
+                for name in f if isinstance(f[name], h5py.Dataset)}
+
+
+def _kill_at_random(args, rng, window) -> str:
+    """Start `sweep ARGS` and SIGKILL it after a random delay; 'killed' or 'finished'."""
+    proc = subprocess.Popen([sys.executable, "-m", "sweep.cli", *map(str, args)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            env={k: v for k, v in os.environ.items() if k not in NO_ARRAY_ENV})
+    try:
+        proc.wait(timeout=rng.uniform(*window))
+        return "finished"
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+        return "killed"
+
+
+@pytest.mark.slow
+def test_sigkill_at_random_points_then_rerun_is_bit_identical(done, tmp_path):
+    """Runs, chunked runs and merges of configs/small.yaml killed at seeded random points; the
+    next command completes them to stores whose every variable is bit-identical to an
+    uninterrupted run, and leaves no temporary file and no lock behind."""
+    rng = random.Random(KILL_SEED)
+    reference = _variables(done / "a.h5")
+    out, run_dir, merged = tmp_path / "k.h5", tmp_path / "run", tmp_path / "m.h5"
+    steps = [("run", ["run", SMALL, "--out", out, "--no-progress"])]
+    steps += [("chunk", ["run", SMALL, "--out", run_dir, "--chunks", 2, "--chunk", k,
+                         "--no-progress"]) for k in range(2)]
+    steps += [("merge", ["merge", run_dir, "--out", merged, "--overwrite"])]
+    outcomes = []
+    for kind, args in steps:
+        for _ in range(KILLS_PER_COMMAND):
+            outcomes.append(_kill_at_random(args, rng, KILL_WINDOWS[kind]))
+            if outcomes[-1] == "finished":
+                break                       # done: later kills would hit a finished command
+        res = invoke(*args)                 # the next successful command
+        assert res.exit_code == 0, res.output
+    assert "killed" in outcomes, outcomes
+    assert _variables(out) == reference
+    assert _variables(merged) == reference
+    assert not leftovers(tmp_path), leftovers(tmp_path)
+    assert not (tmp_path / "k.h5.parts").exists() and not (run_dir / "parts").exists()
