@@ -13,12 +13,14 @@ clean-up of temporaries left by killed writers, and one-line errors for file-sys
 - Every `OSError` of a write becomes an `OutputError` whose one-line message names the path and
   says what happened ("no space left on device", "read-only file system", ...).
 
-Locking: an `O_CREAT | O_EXCL` lock file holding host, pid and command. Exclusive create is
-atomic on local disks, NFSv3+ and Lustre, unlike `flock` (node-local on Lustre mounted with
-`localflock`, absent with `noflock`) and `fcntl` (needs lockd on NFSv3, the `flock` mount option
-on Lustre). A lock whose holder is on this host and no longer running is stale and taken over; a
-holder on another host cannot be checked from here, so the message names it and the lock file to
-delete if that job is gone. See docs/sweeps.md, "Failure modes".
+Locking: a lock file `PATH.lock` holding host, pid and command, made by hard-linking a unique,
+complete file to the lock name (open(2)'s advice for NFS; atomic on local disks, every NFS
+version and Lustre), with O_EXCL as the fallback where hard links are missing. Not `flock`
+(node-local on Lustre mounted `localflock`, absent with `noflock`) nor `fcntl` (needs lockd on
+NFSv3 and its release may lag a crashed client). A lock whose holder is on this host and no
+longer running is stale and taken over; a holder on another host cannot be checked from here,
+so the message names it and the lock file to delete if that job is gone. See docs/sweeps.md,
+"Failure modes".
 """
 from __future__ import annotations
 
@@ -122,6 +124,23 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return path
 
 
+def _write_new(path: Path, data: bytes, exclusive: bool = False) -> None:
+    """Write a small file; with `exclusive`, only if it does not exist (O_EXCL). A failed write
+    removes the file (a full disk must not leave an empty lock behind)."""
+    flags = os.O_WRONLY | os.O_CREAT | (os.O_EXCL if exclusive else os.O_TRUNC)
+    fd = os.open(path, flags, 0o644)
+    try:
+        try:
+            os.write(fd, data)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise
+
+
 def write_json_atomic(path: str | os.PathLike, obj) -> Path:
     text = json.dumps(obj, indent=1, sort_keys=True)
     return write_bytes_atomic(path, text.encode())
@@ -205,22 +224,32 @@ class OutputLock:
             return {}                     # being written right now, or damaged
 
     def _try_create(self) -> bool:
-        try:
-            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
-        except FileExistsError:
-            return False
-        info = dict(host=HOST, pid=os.getpid(), command=" ".join(sys.argv[:1] + sys.argv[1:]),
+        """Create the lock file, complete with its holder, in one atomic step (True), or find it
+        taken (False). The holder is written to a unique file first and hard-linked to the lock
+        name, as open(2) advises for NFS: link(2) is atomic on every NFS version and on Lustre,
+        and a lost reply is caught by the link count. Where hard links are not supported the
+        lock is created with O_EXCL."""
+        info = dict(host=HOST, pid=os.getpid(), command=" ".join(sys.argv),
                     since=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+        unique = temp_path(self.path)
         try:
+            _write_new(unique, json.dumps(info).encode())
             try:
-                os.write(fd, json.dumps(info).encode())
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        except OSError:
-            self.path.unlink()          # a full disk must not leave an empty lock behind
-            raise
-        return True
+                os.link(unique, self.path)
+                return True
+            except FileExistsError:
+                return os.stat(unique).st_nlink == 2
+            except OSError as exc:
+                if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK):
+                    raise
+            try:
+                _write_new(self.path, json.dumps(info).encode(), exclusive=True)
+            except FileExistsError:
+                return False
+            return True
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                unique.unlink()
 
     def _remove_if_stale(self, holder: dict | None) -> bool:
         """Remove the lock if its holder is a dead process of this host. True if removed."""
@@ -310,7 +339,7 @@ def claim_output(path: str | os.PathLike, *, overwrite: bool = True, directory: 
             # created by the writer we waited for
             raise OutputError(f"{path}: exists; pass --overwrite to replace it")
         target = lock or path
-        remove_stale_temporaries(target.parent, names={target.name}, owned=True)
+        remove_stale_temporaries(target.parent, names={target.name, held.path.name}, owned=True)
         yield held
     finally:
         held.release()
