@@ -205,7 +205,8 @@ def lock_path(path: Path) -> Path:
 class OutputLock:
     """Exclusive right to write one output (a file, or a shard with its work directory).
 
-    The lock file `PATH.lock` is created with O_EXCL and holds JSON {host, pid, command, since}.
+    The lock file `PATH.lock` appears atomically with JSON {host, pid, command, since} in it
+    (`_try_create`).
     `acquire` refuses at once (OutputError naming the holder) unless `wait`; a lock of a process
     of this host that is gone is removed first."""
 
@@ -339,7 +340,9 @@ def claim_output(path: str | os.PathLike, *, overwrite: bool = True, directory: 
             # created by the writer we waited for
             raise OutputError(f"{path}: exists; pass --overwrite to replace it")
         target = lock or path
-        remove_stale_temporaries(target.parent, names={target.name, held.path.name}, owned=True)
+        remove_stale_temporaries(target.parent, names={target.name}, owned=True)
+        # a lock's temporary may be a live rival's attempt to take it: only dead ones go
+        remove_stale_temporaries(target.parent, names={held.path.name})
         yield held
     finally:
         held.release()

@@ -379,3 +379,20 @@ def test_sigkill_at_random_points_then_rerun_is_bit_identical(done, tmp_path):
     assert _variables(merged) == reference
     assert not leftovers(tmp_path), leftovers(tmp_path)
     assert not (tmp_path / "k.h5.parts").exists() and not (run_dir / "parts").exists()
+
+
+def test_two_merges_to_one_output_at_once_write_it_once(done, tmp_path):
+    """Whatever their timing, one merge writes and the other is refused (locked, or exists)."""
+    out = tmp_path / "m.h5"
+    procs = [subprocess.Popen([sys.executable, "-m", "sweep.cli", "merge", str(done / "run"),
+                               "--out", str(out)], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    results = [(p.wait(), p.stderr.read()) for p in procs]
+    for p in procs:
+        p.stdout.close()
+        p.stderr.close()
+    assert sorted(rc for rc, _ in results) == [0, 2], results
+    err = next(e for rc, e in results if rc == 2)
+    assert str(out) in err and "Traceback" not in err
+    assert ("being written by" in err) or ("exists" in err)
+    assert _variables(out) == _variables(done / "a.h5") and not leftovers(tmp_path)
