@@ -7,7 +7,6 @@ Only click is imported at start-up, so Ctrl-C in the first second is handled lik
 from __future__ import annotations
 
 import contextlib
-import signal
 import time
 from pathlib import Path
 
@@ -125,17 +124,7 @@ for _command in SWEEP_COMMANDS:
     main.add_command(_command)
 
 
-def entry_point(argv=None):
-    """The `sweep` program. Once the command has finished (its result written or its error
-    reported), Ctrl-C and SIGTERM are ignored while the interpreter shuts down, so that a late
-    signal cannot turn a finished run into a death by signal."""
-    try:
-        main(args=argv, prog_name="sweep")
-    finally:
-        with contextlib.suppress(ValueError):       # not the main thread
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
-
-
 if __name__ == "__main__":  # pragma: no cover
-    entry_point()
+    from .program import main as program
+
+    program()

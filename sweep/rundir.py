@@ -27,7 +27,7 @@ from .chunks import Range, chunk_ranges
 from .outputs import claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic
 from .scene import Scene
 from .store import (KIND_SHARD, Block, CorruptFile, StoreError, assemble, read_block,
-                    scene_from_frozen, write_store, _first_line, _short)
+                    first_line, scene_from_frozen, write_store)
 
 
 MANIFEST = "sweep-manifest.json"
@@ -112,7 +112,7 @@ def read_json(path: Path) -> dict:
         with open(path) as fh:
             return json.load(fh)
     except (OSError, json.JSONDecodeError) as exc:
-        raise StoreError(f"{path}: unreadable ({_first_line(exc)})") from None
+        raise StoreError(f"{path}: unreadable ({first_line(exc)})") from None
 
 
 def ensure_manifest(rundir: RunDir, scene: Scene, n_chunks: int) -> dict:
@@ -321,3 +321,7 @@ def prepare_parts_dir(parts_dir: Path, scene: Scene, start: int, stop: int) -> l
                              f"{parts_dir} or pass --restart")
         blocks.append(b)
     return blocks
+
+
+def _short(v) -> str:
+    return v[:12] if isinstance(v, str) and len(v) == 64 else str(v)

@@ -164,7 +164,7 @@ def read_block(path: Path, with_data: bool = True) -> Block:
     except CorruptFile:
         raise
     except (OSError, KeyError, ValueError, TypeError, json.JSONDecodeError) as exc:
-        raise CorruptFile(f"{path.name}: unreadable ({_first_line(exc)})") from None
+        raise CorruptFile(f"{path.name}: unreadable ({first_line(exc)})") from None
     if tuple(fields) != SUMMARY_FIELDS:
         raise CorruptFile(f"{path.name}: summary fields {fields} differ from {SUMMARY_FIELDS}")
     if data.ndim != 3 or data.shape[0] != stop - start or data.shape[2] != len(SUMMARY_FIELDS):
@@ -252,6 +252,8 @@ class StoreView:
 def read_store(path: Path) -> StoreView:
     """Read a results store with h5py (no xarray needed); raises StoreError if it is not one."""
     path = Path(path)
+    if not path.is_file():
+        raise StoreError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
     try:
         with h5py.File(path, "r") as f:
             kind = _str(f.attrs.get("sweep_file_kind", ""))
@@ -267,7 +269,7 @@ def read_store(path: Path) -> StoreView:
     except StoreError:
         raise
     except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
-        raise StoreError(f"{path}: cannot read results store ({_first_line(exc)})") from None
+        raise StoreError(f"{path}: cannot read results store ({first_line(exc)})") from None
     return StoreView(path, dims, coords, variables, var_attrs, attrs, frozen)
 
 
@@ -312,11 +314,7 @@ def _plain(v):
     return v
 
 
-def _short(v) -> str:
-    return v[:12] if isinstance(v, str) and len(v) == 64 else str(v)
-
-
-def _first_line(exc: BaseException) -> str:
+def first_line(exc: BaseException) -> str:
     return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
 
 
