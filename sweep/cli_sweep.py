@@ -17,9 +17,6 @@ import click
 
 from .cli_base import EXIT_INTERRUPTED, SweepCommand, SweepGroup, UserError, interrupted_message
 
-#: Kept for code that imported it from here.
-SweepInputError = UserError  # noqa
-
 
 class SceneParam(click.ParamType):
     """A YAML sweep config, loaded, validated and expanded into a `sweep.scene.Scene`."""

@@ -396,3 +396,18 @@ def test_two_merges_to_one_output_at_once_write_it_once(done, tmp_path):
     assert str(out) in err and "Traceback" not in err
     assert ("being written by" in err) or ("exists" in err)
     assert _variables(out) == _variables(done / "a.h5") and not leftovers(tmp_path)
+
+
+def test_a_run_removes_the_temporaries_of_its_killed_predecessor(tmp_path):
+    """Store assembly and part writes killed earlier (old and new temporary names)."""
+    cfg = write_config(tmp_path / "c.yaml", tiny())
+    pid = _dead_pid()
+    parts = tmp_path / "a.h5.parts"
+    parts.mkdir()
+    for p in (tmp_path / f".a.h5.tmp{pid}", tmp_path / f".a.h5.tmp.{HOST}.{pid}",
+              parts / f".items-00000000-00000003.h5.tmp.{HOST}.{pid}"):
+        p.write_bytes(b"x" * 136_000)
+    (tmp_path / "a.h5.lock").write_text(json.dumps(dict(host=HOST, pid=pid)))
+    res = invoke("run", cfg, "--out", tmp_path / "a.h5", "--no-progress")
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.h5", "c.yaml"]
