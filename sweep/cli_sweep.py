@@ -348,7 +348,8 @@ def _print_top(view, ri, mui, n, by, ascending, command):
         click.echo("  ".join(v.rjust(w) for v, w in zip(row, widths)))
 
 
-@click.command("show", cls=SweepCommand, short_help="What a results store (or any sweep file) holds.")
+@click.command("show", cls=SweepCommand,
+               short_help="What a results store (or any sweep file) holds.")
 @click.argument("results", type=FILE)
 def show(results):
     """Print what a results store holds: dimensions, variables, config, effects, grid,

@@ -216,7 +216,8 @@ class OutputLock:
         self.what = what or str(self.target)
         self.held = False
 
-    def _holder(self) -> dict | None:
+    def holder(self) -> dict | None:
+        """Who holds the lock (JSON of the lock file), {} if unreadable, None if free."""
         try:
             return json.loads(self.path.read_text() or "{}")
         except FileNotFoundError:
@@ -294,7 +295,7 @@ class OutputLock:
                 if self._try_create():
                     self.held = True
                     return self
-                holder = self._holder()
+                holder = self.holder()
                 if holder is None or self._remove_if_stale(holder):
                     continue
                 if not wait:

@@ -24,7 +24,8 @@ from pathlib import Path
 
 from . import __version__
 from .chunks import Range, chunk_ranges
-from .outputs import claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic
+from .outputs import (OutputLock, claim_output, os_errors_named, remove_stale_temporaries,
+                      write_json_atomic)
 from .scene import Scene
 from .store import (KIND_SHARD, Block, CorruptFile, StoreError, assemble, read_block,
                     first_line, scene_from_frozen, write_store)
@@ -240,6 +241,10 @@ def scan_shards(root: Path) -> DirStatus:
         if not found:
             n_parts = len(list(parts_dir.glob("items-*.h5"))) if parts_dir.is_dir() else 0
             detail = f"in progress: {n_parts} sub-chunks done" if n_parts else ""
+            holder = OutputLock(rundir.shard(k, n_chunks)).holder()
+            if holder:
+                detail = (detail or "in progress") + (f", locked by pid {holder.get('pid')} on "
+                                                      f"host {holder.get('host')}")
             shards.append(ShardState(k, "missing", rundir.shard(k, n_chunks), detail,
                                      range=ranges[k] if ranges else None, parts_done=n_parts))
         elif len(found) == 1:

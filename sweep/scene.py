@@ -483,8 +483,10 @@ def _check_memory(values: dict, h: float) -> None:
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
     points = grid_points(l1, l2, w, r, h)
     if points == TOO_MANY_POINTS:
-        raise SceneError(f"grid.h: {h!r} is too fine to count the grid points of the largest "
-                         f"design (l1={l1}, l2={l2}, w={w}, r={r}); use a larger grid.h")
+        raise SceneError(f"grid.h: {h!r} gives the largest design (l1={l1}, l2={l2}, w={w}, "
+                         f"r={r}) too many grid points to count (over 1e9 per axis), far above "
+                         f"the {MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h or "
+                         f"smaller designs")
     need = points * BYTES_PER_POINT
     if need > MAX_MAP_BYTES:
         raise SceneError(

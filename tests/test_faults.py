@@ -220,6 +220,17 @@ def test_a_second_writer_is_refused_naming_the_holder(done, tmp_path):
     assert snapshot(tmp_path) == before and not leftovers(tmp_path)
 
 
+def test_status_names_the_holder_of_a_shard_in_progress(done, tmp_path):
+    run_dir = tmp_path / "run"
+    shutil.copytree(done / "run", run_dir)
+    shard = next(run_dir.glob("shard-0001-*.h5"))
+    shard.unlink()
+    with OutputLock(shard).acquire():
+        res = invoke("status", run_dir)
+    assert res.exit_code == 1
+    assert f"locked by pid {os.getpid()} on host {HOST}" in res.output
+
+
 def test_wait_takes_the_output_when_the_holder_finishes(done, tmp_path):
     out = tmp_path / "m.h5"
     lock = OutputLock(out).acquire()
@@ -293,7 +304,10 @@ def test_sigterm_during_a_map_is_one_line(tmp_path, monkeypatch):
     pytest.param(dict(grid={"h": 100}), ["grid.h", "100", "1 x 1"], id="one-point-grid"),
     pytest.param(dict(grid={"h": "0.2"}), ["grid.h", "'0.2'", "quoted"], id="quoted-number"),
     pytest.param(dict(name=123), ["name", "123", "quote"], id="numeric-name"),
-    pytest.param(dict(grid={"h": 1e-12}), ["grid.h", "too fine"], id="uncountable-grid"),
+    pytest.param(dict(grid={"h": 1e-12}), ["grid.h", "too many grid points to count"],
+                 id="uncountable-grid"),
+    pytest.param(dict(designs={"l1": [1e9]}), ["grid.h", "l1=1000000000.0", "too many"],
+                 id="huge-design"),
 ])
 def test_bad_config_values_are_named(tmp_path, changes, names):
     cfg = write_config(tmp_path / "c.yaml", tiny(**changes))
