@@ -3,8 +3,7 @@
 Every HDF5 file this package writes goes through `atomic_file`: built in memory, then written
 under a temporary name in the same directory and renamed into place only when complete
 (`sweep.outputs`), so a file with the final name is always whole. Dimensions are HDF5 dimension
-scales, which `xarray.open_dataset(..., engine="h5netcdf")`
-reads as labelled coordinates.
+scales, which `xarray.open_dataset(..., engine="h5netcdf")` reads as labelled coordinates.
 """
 from __future__ import annotations
 
