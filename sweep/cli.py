@@ -97,10 +97,10 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     from .mapfile import describe, write_map
 
     # Both outputs are checked and locked before the map is computed.
+    # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
     with contextlib.ExitStack() as claimed:
-        claimed.enter_context(claim_output(out, overwrite=overwrite, wait=wait))
-        if plot_path is not None:
-            claimed.enter_context(claim_output(plot_path, overwrite=overwrite, wait=wait))
+        for path in sorted({out, plot_path} - {None}, key=lambda p: str(p.resolve())):
+            claimed.enter_context(claim_output(path, overwrite=overwrite, wait=wait))
         with numba_threads(threads):
             # Load (or, the first time, compile) the kernels on a tiny map so the timing
             # reported for the real map is the computation alone.

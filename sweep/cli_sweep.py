@@ -120,8 +120,9 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
                                    progress=progress, restart=restart, wait=wait)
     except KeyboardInterrupt as exc:
         where = SingleRun(out).parts if chunks is None else RunDir(out).parts_root
-        click.echo(interrupted_message(exc, f"finished sub-chunks are kept in {where}; rerun "
-                                            "the same command to resume"), err=True)
+        hint = (f"finished sub-chunks are kept in {where}; rerun the same command to resume"
+                if where.exists() else "")
+        click.echo(interrupted_message(exc, hint), err=True)
         sys.exit(EXIT_INTERRUPTED)
     except OutputError as exc:
         where = SingleRun(out).parts if chunks is None else RunDir(out).parts_root
