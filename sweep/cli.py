@@ -124,7 +124,5 @@ for _command in SWEEP_COMMANDS:
     main.add_command(_command)
 
 
-if __name__ == "__main__":  # pragma: no cover
-    from .program import main as program
-
-    program()
+if __name__ == "__main__":  # pragma: no cover  (the program itself: `python -m sweep`)
+    main()

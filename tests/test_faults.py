@@ -151,7 +151,7 @@ def test_output_under_a_regular_file_is_refused_before_any_work(tmp_path, monkey
 def test_disk_full_is_one_line_and_keeps_finished_parts(full_dir, tmp_path):
     """A real `sweep map` process (the HDF5 library crashed on ENOSPC before), then a run."""
     out = full_dir / "m.h5"
-    res = subprocess.run([sys.executable, "-m", "sweep.cli", *MAP, "--h", "0.05", "--out",
+    res = subprocess.run([sys.executable, "-m", "sweep", *MAP, "--h", "0.05", "--out",
                           str(out)], capture_output=True, text=True)
     assert res.returncode == 2, res.stderr
     assert "no space left on device" in res.stderr and str(out) in res.stderr
@@ -356,7 +356,7 @@ def _variables(path: Path) -> dict:
 
 def _kill_at_random(args, rng, window) -> str:
     """Start `sweep ARGS` and SIGKILL it after a random delay; 'killed' or 'finished'."""
-    proc = subprocess.Popen([sys.executable, "-m", "sweep.cli", *map(str, args)],
+    proc = subprocess.Popen([sys.executable, "-m", "sweep", *map(str, args)],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                             env={k: v for k, v in os.environ.items() if k not in NO_ARRAY_ENV})
     try:
@@ -398,7 +398,7 @@ def test_sigkill_at_random_points_then_rerun_is_bit_identical(done, tmp_path):
 def test_two_merges_to_one_output_at_once_write_it_once(done, tmp_path):
     """Whatever their timing, one merge writes and the other is refused (locked, or exists)."""
     out = tmp_path / "m.h5"
-    procs = [subprocess.Popen([sys.executable, "-m", "sweep.cli", "merge", str(done / "run"),
+    procs = [subprocess.Popen([sys.executable, "-m", "sweep", "merge", str(done / "run"),
                                "--out", str(out)], stdout=subprocess.PIPE,
                               stderr=subprocess.PIPE, text=True) for _ in range(2)]
     results = [(p.wait(), p.stderr.read()) for p in procs]
