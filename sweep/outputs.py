@@ -16,8 +16,8 @@ clean-up of temporaries left by killed writers, and one-line errors for file-sys
 Locking: a lock file `PATH.lock` holding host, pid and command, made by hard-linking a unique,
 complete file to the lock name (open(2)'s advice for NFS; atomic on local disks, every NFS
 version and Lustre), with O_EXCL as the fallback where hard links are missing. Not `flock`
-(node-local on Lustre mounted `localflock`, absent with `noflock`) nor `fcntl` (needs lockd on
-NFSv3 and its release may lag a crashed client). A lock whose holder is on this host and no
+(node-local on Lustre mounted `localflock`, an error with `noflock`) nor `fcntl` (needs lockd on
+NFSv3, and its release may lag a crashed client). A lock whose holder is on this host and no
 longer running is stale and taken over; a holder on another host cannot be checked from here,
 so the message names it and the lock file to delete if that job is gone. See docs/sweeps.md,
 "Failure modes".
