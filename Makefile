@@ -17,7 +17,7 @@ install: $(STAMP)
 # The main job on its default config: one energy map of the issue's reference design, with its plot.
 run: $(STAMP)
 	$(VENV)/bin/sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 \
-		--out results/map.h5 --plot results/map.png
+		--out results/map.h5 --plot results/map.png --overwrite
 
 test: $(STAMP)
 	$(PY) -m pytest -q

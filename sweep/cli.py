@@ -1,25 +1,25 @@
-"""Command line: `sweep map` for one energy map; the sweep commands are registered from cli_sweep.
+"""Command line: `sweep map` for one energy map, plus the sweep commands of `sweep.cli_sweep`.
 
 Input is validated once, here at the edge, before anything is written: a bad value gives a
-one-line message and exit code 2.
+one-line message and exit code 2 (`sweep.cli_base.user_errors`, which every command runs in).
+Only click is imported at start-up, so Ctrl-C in the first second is handled like any other.
 """
 from __future__ import annotations
 
-import os
-import sys
+import contextlib
 import time
 from pathlib import Path
 
 import click
 
 from . import __version__
-from .cli_sweep import SweepInputError as InputError
-from .cli_sweep import register as register_sweep_commands
-from .model import (Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part)
-from .runner import RunError, numba_threads, resolve_threads
+from .cli_base import SweepGroup, UserError
+from .cli_sweep import COMMANDS as SWEEP_COMMANDS
+from .model import Accuracy     # plain dataclasses, no NumPy: cheap to import
 
 
-@click.group(context_settings=dict(help_option_names=["-h", "--help"], max_content_width=100))
+@click.group(cls=SweepGroup,
+             context_settings=dict(help_option_names=["-h", "--help"], max_content_width=100))
 @click.version_option(__version__, prog_name="sweep")
 def main():
     """Friction-based potential energy maps for two-finger tendon-pulley grippers.
@@ -27,17 +27,6 @@ def main():
     `sweep map` computes one map (one design, one part, one command); the sweep commands run the
     paper's design-space search from a YAML config, on one machine or as an HPC array job.
     """
-
-
-def _check_writable_target(path: Path, option: str) -> None:
-    parent = path.expanduser().resolve().parent
-    probe = parent
-    while not probe.exists():
-        probe = probe.parent
-    if not os.access(probe, os.W_OK):
-        raise InputError(f"{option}: cannot write under {probe}")
-    if path.exists() and path.is_dir():
-        raise InputError(f"{option}: {path} is a directory")
 
 
 @main.command("map")
@@ -74,8 +63,12 @@ def _check_writable_target(path: Path, option: str) -> None:
 @click.option("--forces/--no-forces", default=False, show_default=True,
               help="Also store each finger's contact forces on the part per unit tendon tension "
                    "(normal forces, distal friction multiplier, resultant; MODEL 5.1, 5.6).")
+@click.option("--overwrite", is_flag=True, help="Replace existing --out / --plot files.")
+@click.option("--wait", is_flag=True,
+              help="If another process is writing the same --out, wait for it.")
 def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
-                theta2_max, reconfig_step, root_tol, threads, out, plot_path, forces):
+                theta2_max, reconfig_step, root_tol, threads, out, plot_path, forces,
+                overwrite, wait):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
     Per grid point of part centres: finger configurations and modes, energy, class, part
@@ -83,8 +76,11 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from .maps import check_memory, compute_map, map_grid
-    from .model import validate_inputs
+    from .maps import compute_map, map_grid
+    from .model import (Command, Design, Effects, Grid, Limits, ModelInputError, Part,
+                        validate_inputs)
+    from .outputs import claim_output
+    from .runner import RunError, numba_threads, resolve_threads
 
     design = Design(l1, l2, r1, r2, w)
     part = Part(r, mu)
@@ -94,37 +90,42 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol)
     try:
         validate_inputs(design, part, command, limits, accuracy, Effects())
-        g = map_grid(design, part, grid)
-        check_memory(g.x.size * g.y.size)
+        map_grid(design, part, grid)  # sizes the grid and checks it fits in memory
         threads = resolve_threads(threads)
     except (ModelInputError, RunError) as err:
-        raise InputError(str(err)) from None
-    _check_writable_target(out, "--out")
-    if plot_path is not None:
-        _check_writable_target(plot_path, "--plot")
+        raise UserError(str(err)) from None
+    if plot_path is not None and plot_path.resolve() == out.resolve():
+        raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 
     from .mapfile import describe, write_map
 
-    with numba_threads(threads):
-        # Load (or, the first time, compile) the kernels on a tiny map so the timing reported
-        # for the real map is the computation alone.
-        started = time.perf_counter()
-        compute_map(design, part, command, Grid(h=max(h, 0.5)), limits, accuracy)
-        if time.perf_counter() - started > 2.0:
-            click.echo(f"kernels compiled in {time.perf_counter() - started:.1f} s "
-                       "(cached for the next run)")
-        m = compute_map(design, part, command, grid, limits, accuracy, forces=forces)
-    write_map(out, m)
-    click.echo(describe(m))
-    click.echo(f"wrote {out}")
-    if plot_path is not None:
-        from .plot import plot_map
+    # Both outputs are checked and locked before the map is computed.
+    # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
+    with contextlib.ExitStack() as claimed:
+        for path in sorted({out, plot_path} - {None}, key=lambda p: str(p.resolve())):
+            claimed.enter_context(claim_output(path, overwrite=overwrite, wait=wait))
+        with numba_threads(threads):
+            # Load (or, the first time, compile) the kernels on a tiny map so the timing
+            # reported for the real map is the computation alone.
+            started = time.perf_counter()
+            compute_map(design, part, command, Grid(h=max(h, 0.5)), limits, accuracy)
+            if time.perf_counter() - started > 2.0:
+                click.echo(f"kernels compiled in {time.perf_counter() - started:.1f} s "
+                           "(cached for the next run)")
+            m = compute_map(design, part, command, grid, limits, accuracy, forces=forces)
+        write_map(out, m)
+        click.echo(describe(m))
+        click.echo(f"wrote {out}")
+        if plot_path is not None:
+            from .plot import plot_map
 
-        plot_map(m, plot_path)
-        click.echo(f"wrote {plot_path}")
+            plot_map(m, plot_path)
+            click.echo(f"wrote {plot_path}")
 
 
-register_sweep_commands(main)
+for _command in SWEEP_COMMANDS:
+    main.add_command(_command)
 
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+
+if __name__ == "__main__":  # pragma: no cover  (the program itself: `python -m sweep`)
+    main()

@@ -1,30 +1,21 @@
 """Sweep commands of the CLI: run, slurm, status, merge, top, show.
 
-`register(group)` adds them to a click group (`sweep.cli.main` does so). Each command is a thin
-layer over `sweep.scene`, `sweep.runner`, `sweep.store` and `sweep.slurm`. A config is loaded and
-validated by the CONFIG argument's type, before anything is written; any bad input ends with a
-one-line message and exit code 2.
+Each command is declared once, here, as a click command (`COMMANDS`); `register(group)` adds them
+to a group (`sweep.cli.main` does so). Each is a thin layer over `sweep.scene`, `sweep.runner`,
+`sweep.rundir`, `sweep.store` and `sweep.slurm`. A config is loaded and validated by the CONFIG
+argument's type, before anything is written; errors reach the user through
+`sweep.cli_base.user_errors` (one line, exit code 2; Ctrl-C and SIGTERM exit 130).
 """
 from __future__ import annotations
 
-import contextlib
+import errno
 import shutil
-import signal
 import sys
 from pathlib import Path
 
 import click
-import numpy as np
 
-from .model import ModelInputError
-
-EXIT_INTERRUPTED = 130
-
-
-class SweepInputError(click.ClickException):
-    """Bad input or an unusable file/directory: one line, exit code 2."""
-
-    exit_code = 2
+from .cli_base import EXIT_INTERRUPTED, SweepCommand, SweepGroup, UserError, interrupted_message
 
 
 class SceneParam(click.ParamType):
@@ -33,6 +24,7 @@ class SceneParam(click.ParamType):
     name = "config"
 
     def convert(self, value, param, ctx):
+        from .model import ModelInputError
         from .scene import Scene, load_scene
 
         if isinstance(value, Scene):
@@ -40,45 +32,43 @@ class SceneParam(click.ParamType):
         try:
             scene = load_scene(value)
         except ModelInputError as exc:
-            self.fail(str(exc), param, ctx)
+            # a bad config is not a usage mistake: one line naming the file and key, exit 2
+            msg = str(exc)
+            if not msg.startswith((str(value), Path(value).name)):
+                msg = f"{value}: {msg}"
+            raise UserError(msg) from None
         return scene
 
 
 CONFIG = SceneParam()
-
-
-@contextlib.contextmanager
-def _errors_exit_2():
-    from .store import StoreError
-
-    try:
-        yield
-    except (StoreError, ModelInputError) as exc:
-        raise SweepInputError(str(exc)) from None
-
-
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM (a batch system's time limit or `kill`) handled like Ctrl-C."""
-
-
-@contextlib.contextmanager
-def _sigterm_as_interrupt():
-    def handler(signum, frame):
-        raise _Terminated()
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:          # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+PATH = click.Path(path_type=Path)
+FILE = click.Path(dir_okay=False, path_type=Path)
+WAIT = click.option("--wait", is_flag=True,
+                    help="If another sweep is writing the same output, wait for it instead of "
+                         "stopping at once.")
 
 
 # ---------------------------------------------------------------------------------------------
-def cmd_run(scene, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts):
+@click.command("run", cls=SweepCommand, short_help="Compute a sweep (one machine, or one chunk).")
+@click.argument("config", type=CONFIG)
+@click.option("--out", type=PATH, required=True,
+              help="Results store (.h5) to write; with --chunks, the run directory.")
+@click.option("--chunk", type=int, default=None,
+              help="Which chunk to compute, 0..N-1 (default: from the array job's environment).")
+@click.option("--chunks", type=int, default=None,
+              help="Split the sweep into N chunks and compute one (cluster runs).")
+@click.option("--threads", type=int, default=None,
+              help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Progress bar on stderr (maps done, maps/s, ETA).")
+@click.option("--restart", is_flag=True,
+              help="Discard finished sub-chunks of an earlier run instead of resuming.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing results file of another config.")
+@click.option("--keep-parts", is_flag=True,
+              help="Keep the RESULTS.parts/ work directory after assembling the store.")
+@WAIT
+def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts, wait):
     """Compute a sweep: the whole of it into one store, or one chunk of it into a run directory.
 
     \b
@@ -95,46 +85,51 @@ def cmd_run(scene, out, chunk, chunks, threads, progress, restart, overwrite, ke
     SLURM_ARRAY_TASK_ID or PBS_ARRAY_INDEX (0..N-1), SGE_TASK_ID or LSB_JOBINDEX (1..N).
     """
     from . import runner
+    from .outputs import OutputError
+    from .rundir import RunDir, SingleRun
 
+    scene = config
     if chunk is not None and chunks is None:
         raise click.UsageError("--chunk needs --chunks (the total number of chunks)")
-    with _errors_exit_2():
-        threads = runner.resolve_threads(threads)
-        if chunks is not None:
-            if chunks < 1:
-                raise SweepInputError(f"--chunks must be >= 1, got {chunks}")
-            source = "--chunk"
-            if chunk is None:
-                found = runner.chunk_index_from_env()
-                if found is None:
-                    raise click.UsageError(
-                        "--chunks without --chunk: give --chunk I, or run as an array job "
-                        "(SLURM_ARRAY_TASK_ID, PBS_ARRAY_INDEX, SGE_TASK_ID or LSB_JOBINDEX)")
-                chunk, source = found
-            if not 0 <= chunk < chunks:
-                raise SweepInputError(f"{source}: chunk index {chunk} outside 0..{chunks - 1}")
-            if out.exists() and not out.is_dir():
-                raise SweepInputError(f"--out: {out} is a file; with --chunks it names a run "
-                                      "directory")
-        elif out.is_dir():
-            raise SweepInputError(f"--out: {out} is a directory; without --chunks it names the "
-                                  "results file")
-        with _sigterm_as_interrupt():
-            try:
-                if chunks is None:
-                    res = runner.run_single(scene, out, threads=threads, progress=progress,
-                                            restart=restart, overwrite=overwrite,
-                                            keep_parts=keep_parts)
-                else:
-                    res = runner.run_chunk(scene, out, chunk, chunks, threads=threads,
-                                           progress=progress, restart=restart)
-            except KeyboardInterrupt as exc:
-                what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
-                where = (runner.parts_dir_for(out) if chunks is None
-                         else out / "parts")
-                click.echo(f"sweep: {what}; finished sub-chunks are kept in {where}; rerun the "
-                           "same command to resume", err=True)
-                sys.exit(EXIT_INTERRUPTED)
+    threads = runner.resolve_threads(threads)
+    if chunks is not None:
+        if chunks < 1:
+            raise UserError(f"--chunks must be >= 1, got {chunks}")
+        source = "--chunk"
+        if chunk is None:
+            found = runner.chunk_index_from_env()
+            if found is None:
+                raise click.UsageError(
+                    "--chunks without --chunk: give --chunk I, or run as an array job "
+                    "(SLURM_ARRAY_TASK_ID, PBS_ARRAY_INDEX, SGE_TASK_ID or LSB_JOBINDEX)")
+            chunk, source = found
+        if not 0 <= chunk < chunks:
+            raise UserError(f"{source}: chunk index {chunk} outside 0..{chunks - 1}")
+        if out.exists() and not out.is_dir():
+            raise UserError(f"--out: {out} is a file; with --chunks it names a run directory")
+    elif out.is_dir():
+        raise UserError(f"--out: {out} is a directory; without --chunks it names the results "
+                        "file")
+    try:
+        if chunks is None:
+            res = runner.run_single(scene, out, threads=threads, progress=progress,
+                                    restart=restart, overwrite=overwrite,
+                                    keep_parts=keep_parts, wait=wait)
+        else:
+            res = runner.run_chunk(scene, out, chunk, chunks, threads=threads,
+                                   progress=progress, restart=restart, wait=wait)
+    except KeyboardInterrupt as exc:
+        where = SingleRun(out).parts if chunks is None else RunDir(out).parts_root
+        hint = (f"finished sub-chunks are kept in {where}; rerun the same command to resume"
+                if where.exists() else "")
+        click.echo(interrupted_message(exc, hint), err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    except OutputError as exc:
+        where = SingleRun(out).parts if chunks is None else RunDir(out).parts_root
+        if exc.errno in (errno.ENOSPC, errno.EDQUOT) and where.exists():
+            raise UserError(f"{exc}; finished sub-chunks are kept in {where}: free space, then "
+                            "rerun the same command to resume") from None
+        raise
     if res.already_done:
         click.echo(f"{res.path} is already complete ({res.n_maps:,} maps, config "
                    f"{scene.config_hash[:12]}); nothing to do")
@@ -144,8 +139,27 @@ def cmd_run(scene, out, chunk, chunks, threads, progress, restart, overwrite, ke
                f"{res.wall_seconds:.1f} s; {rate:,.0f} maps/s of compute")
 
 
-def cmd_slurm(scene, chunks, out, parallel, cpus_per_task, time_limit, mem,
-              partition, account, job_name, sweep_cmd, sbatch_opts):
+@click.command("slurm", cls=SweepCommand, short_help="Print an sbatch array script for a sweep.")
+@click.argument("config", type=CONFIG)
+@click.option("--chunks", type=click.IntRange(min=1), required=True,
+              help="Number of chunks (array tasks).")
+@click.option("--out", type=PATH, required=True, help="Run directory for the shards.")
+@click.option("--parallel", type=click.IntRange(min=1), default=None,
+              help="Most array tasks running at once (--array=0-{N-1}%P).")
+@click.option("--cpus-per-task", type=click.IntRange(min=1), default=4, show_default=True,
+              help="Cores per task (becomes the task's thread count).")
+@click.option("--time", "time_limit", default="01:00:00", show_default=True,
+              help="Wall-time limit per task; a task that hits it resumes when resubmitted.")
+@click.option("--mem", default=None, help="Memory per task, e.g. 4G.")
+@click.option("--partition", default=None, help="Slurm partition.")
+@click.option("--account", default=None, help="Slurm account.")
+@click.option("--job-name", default=None, help="Job name (default: sweep-NAME).")
+@click.option("--sweep-cmd", default=None,
+              help="Command that runs sweep on the nodes (default: this installation's).")
+@click.option("--sbatch", "sbatch_opts", multiple=True, metavar="KEY=VALUE",
+              help="Extra #SBATCH option, repeatable (e.g. --sbatch qos=long).")
+def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem, partition,
+                  account, job_name, sweep_cmd, sbatch_opts):
     """Print an sbatch array script that runs the sweep as N chunks.
 
     \b
@@ -157,45 +171,50 @@ def cmd_slurm(scene, chunks, out, parallel, cpus_per_task, time_limit, mem,
     Creates DIR and DIR/logs (Slurm does not create log directories) and writes the frozen config
     and chunk plan to DIR/sweep-manifest.json, so every task checks it runs the same sweep.
     """
-    from . import slurm
     from .chunks import chunk_ranges
-    from .store import RunDir, ensure_manifest
+    from .outputs import os_errors_named
+    from .rundir import RunDir, ensure_manifest
+    from .slurm import sbatch_script
 
+    scene = config
     extra = {}
     for item in sbatch_opts:
         key, sep, value = item.partition("=")
         if not sep or not key.strip("-"):
-            raise SweepInputError(f"--sbatch: expected KEY=VALUE, got {item!r}")
+            raise UserError(f"--sbatch: expected KEY=VALUE, got {item!r}")
         extra[key.strip().lstrip("-")] = value
-    with _errors_exit_2():
-        try:
-            chunk_ranges(scene.n_items, chunks, scene.group_size)
-        except ValueError as exc:
-            raise SweepInputError(f"--chunks: {exc}") from None
-        if sweep_cmd is None:
-            exe = Path(sys.executable).parent / "sweep"
-            sweep_cmd = str(exe) if exe.exists() else (shutil.which("sweep") or "sweep")
-        rundir = RunDir(out.resolve())
-        ensure_manifest(rundir, scene, chunks)
+    try:
+        chunk_ranges(scene.n_items, chunks, scene.group_size)
+    except ValueError as exc:
+        raise UserError(f"--chunks: {exc}") from None
+    if sweep_cmd is None:
+        exe = Path(sys.executable).parent / "sweep"
+        sweep_cmd = str(exe) if exe.exists() else (shutil.which("sweep") or "sweep")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out: {out} is a file; it names the run directory")
+    rundir = RunDir(out.resolve())
+    ensure_manifest(rundir, scene, chunks)
+    with os_errors_named(rundir.logs, "cannot create folder"):
         rundir.logs.mkdir(parents=True, exist_ok=True)
-        text = slurm.sbatch_script(
-            config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
-            job_name=job_name or f"sweep-{scene.name}", sweep_cmd=sweep_cmd, parallel=parallel,
-            cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
-            account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
+    text = sbatch_script(
+        config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
+        job_name=job_name or f"sweep-{scene.name}", sweep_cmd=sweep_cmd, parallel=parallel,
+        cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
+        account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
     click.echo(text, nl=False)
 
 
-def cmd_status(directory):
+@click.command("status", cls=SweepCommand, short_help="Which shards of a run directory are done.")
+@click.argument("directory", type=PATH)
+def status(directory):
     """Say which shards of a chunked run directory are done, missing, corrupt or mismatched.
 
     Exit code 0 when every shard is done (ready for `sweep merge`), 1 otherwise, 2 if DIR is not
     a chunked run directory.
     """
-    from .store import scan_shards
+    from .rundir import scan_shards
 
-    with _errors_exit_2():
-        st = scan_shards(directory)
+    st = scan_shards(directory)
     counts = st.counts()
     summary = ", ".join(f"{counts[k]} {k}" for k in ("done", "missing", "corrupt", "mismatched",
                                                       "duplicate") if counts.get(k))
@@ -212,18 +231,20 @@ def cmd_status(directory):
         sys.exit(1)
 
 
-def cmd_merge(directory, out, overwrite):
+@click.command("merge", cls=SweepCommand, short_help="Merge finished shards into one store.")
+@click.argument("directory", type=PATH)
+@click.option("--out", type=FILE, required=True, help="Results store (.h5) to write.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+@WAIT
+def merge(directory, out, overwrite, wait):
     """Merge the shards of a chunked run directory into one results store.
 
     Refuses (exit code 2, nothing written) when a shard is missing, corrupt, duplicated, or from
     a different config, chunking or sweep version.
     """
-    from .store import merge_shards
+    from .rundir import merge_shards
 
-    if out.exists() and not overwrite:
-        raise SweepInputError(f"--out: {out} exists; pass --overwrite to replace it")
-    with _errors_exit_2():
-        scene, st = merge_shards(directory, out)
+    scene, st = merge_shards(directory, out, overwrite=overwrite, wait=wait)
     click.echo(f"wrote {out}: {scene.n_maps:,} maps from {st.n_chunks} shards "
                f"(config {scene.config_hash[:12]})")
 
@@ -232,7 +253,20 @@ TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejecti
                "n_reached")
 
 
-def cmd_top(results, r, mu, n, by, ascending, command):
+@click.command("top", cls=SweepCommand, short_help="Best designs of each part, as tables.")
+@click.argument("results", type=FILE)
+@click.option("--r", "r", type=float, default=None,
+              help="Part radius (a value of the store); default: every radius.")
+@click.option("--mu", type=float, default=None,
+              help="Part friction (a value of the store); default: every value.")
+@click.option("-n", "n", type=int, default=None,
+              help="How many designs per part [default: 10 for one part, else 1].")
+@click.option("--by", default="Lambda", show_default=True,
+              help="Summary variable to rank by (e.g. caging_area, n_caged).")
+@click.option("--ascending", is_flag=True, help="Smallest first.")
+@click.option("--command", "command", type=int, default=0, show_default=True,
+              help="Command index, for stores with several commands.")
+def top(results, r, mu, n, by, ascending, command):
     """Print the best designs of each part (r, mu) of a results store, as tables.
 
     Designs are ranked by --by (default Lambda, the paper's caging metric; at a fixed grid
@@ -241,17 +275,18 @@ def cmd_top(results, r, mu, n, by, ascending, command):
     design only). Examples: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10 --by caging_area;
     sweep top paper.h5   (the best design of each of the 16 parts)
     """
+    import numpy as np
+
     from .batch import SUMMARY_FIELDS
     from .store import read_store
 
     if by not in SUMMARY_FIELDS:
-        raise SweepInputError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
+        raise UserError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
     if n is None:
         n = 10 if (r is not None and mu is not None) else 1
     if n < 1:
-        raise SweepInputError(f"-n: must be >= 1, got {n}")
-    with _errors_exit_2():
-        view = read_store(results)
+        raise UserError(f"-n: must be >= 1, got {n}")
+    view = read_store(results)
     chosen = {}
     for name, value in (("r", r), ("mu", mu)):
         coord = view.coords[name]
@@ -260,12 +295,12 @@ def cmd_top(results, r, mu, n, by, ascending, command):
             continue
         hits = np.flatnonzero(np.isclose(coord, value, rtol=1e-9, atol=1e-12))
         if hits.size != 1:
-            raise SweepInputError(f"--{name}: {value:g} is not in the store (values: "
+            raise UserError(f"--{name}: {value:g} is not in the store (values: "
                                   f"{', '.join(f'{v:g}' for v in coord)})")
         chosen[name] = [int(hits[0])]
     ncmd = view.coords["command"].size if "command" in view.dims else 1
     if not 0 <= command < ncmd:
-        raise SweepInputError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
+        raise UserError(f"--command: must be an index 0..{ncmd - 1}, got {command}")
     for k, (ri, mui) in enumerate((a, b) for a in chosen["r"] for b in chosen["mu"]):
         if k:
             click.echo("")
@@ -273,6 +308,8 @@ def cmd_top(results, r, mu, n, by, ascending, command):
 
 
 def _print_top(view, ri, mui, n, by, ascending, command):
+    import numpy as np
+
     sel = {"r": ri, "mu": mui}
     if "command" in view.dims:
         sel["command"] = command
@@ -312,9 +349,13 @@ def _print_top(view, ri, mui, n, by, ascending, command):
         click.echo("  ".join(v.rjust(w) for v, w in zip(row, widths)))
 
 
-def cmd_show(results):
-    """Print what a results store (or a shard/part file) holds: dimensions, variables, config,
-    effects, grid, provenance and timings."""
+@click.command("show", cls=SweepCommand,
+               short_help="What a results store (or any sweep file) holds.")
+@click.argument("results", type=FILE)
+def show(results):
+    """Print what a results store holds: dimensions, variables, config, effects, grid,
+    provenance and timings. Shard and part files, and single maps (`sweep map`,
+    outputs.save_maps), get a short description."""
     from .store import CorruptFile, StoreError, read_block, read_store
 
     try:
@@ -323,7 +364,11 @@ def cmd_show(results):
         try:
             b = read_block(results, with_data=False)
         except CorruptFile:
-            raise SweepInputError(str(store_exc)) from None
+            lines = _describe_map_file(results)
+            if lines is None:
+                raise UserError(str(store_exc)) from None
+            click.echo("\n".join(lines))
+            return
         click.echo(f"{results}: {b.kind} of sweep {b.frozen.get('name')!r}, items "
                    f"{b.start}-{b.stop} of {b.frozen and _n_items(b)}"
                    + (f", chunk {b.chunk} of {b.n_chunks}" if b.chunk is not None else ""))
@@ -365,6 +410,37 @@ def cmd_show(results):
             click.echo(f"    {name}")
 
 
+def _describe_map_file(path: Path) -> list[str] | None:
+    """A few lines about a single-map file, or None if `path` is not one."""
+    import json
+
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as f:
+            if "energy" not in f or "design" not in f.attrs:
+                return None
+            a = {k: (v.decode() if isinstance(v, bytes) else v) for k, v in f.attrs.items()}
+            ny, nx = f["energy"].shape
+    except (OSError, KeyError, ValueError):
+        return None
+
+    def fmt(key):
+        try:
+            return ", ".join(f"{k} {v:g}" for k, v in json.loads(a[key]).items()
+                             if isinstance(v, (int, float)))
+        except (KeyError, TypeError, ValueError):
+            return "?"
+
+    return [f"{path}: one energy map (written by `sweep map` or a sweep's outputs.save_maps; "
+            "`sweep show` describes results stores in full, open this one with xarray)",
+            f"  design: {fmt('design')}; part: {fmt('part')}; command: {fmt('command')}",
+            f"  grid: {ny} x {nx} points at h = {a.get('h')}; Lambda {a.get('Lambda')}, "
+            f"caging_area {a.get('caging_area')}, caged {a.get('n_caged')}, "
+            f"reached {a.get('n_reached')}",
+            f"  sweep {a.get('sweep_version')}, written {a.get('created_utc')}"]
+
+
 def _n_items(b) -> str:
     try:
         from .store import scene_from_frozen
@@ -375,106 +451,18 @@ def _n_items(b) -> str:
 
 
 # ---------------------------------------------------------------------------------------------
+COMMANDS = (run, slurm_command, status, merge, top, show)
+
+
 def register(group: click.Group) -> None:
     """Add the sweep commands to `group`."""
-    path_out = click.Path(path_type=Path)
-
-    @group.command("run", short_help="Compute a sweep (one machine, or one chunk).")
-    @click.argument("config", type=CONFIG)
-    @click.option("--out", type=path_out, required=True,
-                  help="Results store (.h5) to write; with --chunks, the run directory.")
-    @click.option("--chunk", type=int, default=None,
-                  help="Which chunk to compute, 0..N-1 (default: from the array job's "
-                       "environment).")
-    @click.option("--chunks", type=int, default=None,
-                  help="Split the sweep into N chunks and compute one (cluster runs).")
-    @click.option("--threads", type=int, default=None,
-                  help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
-    @click.option("--progress/--no-progress", default=True, show_default=True,
-                  help="Progress bar on stderr (maps done, maps/s, ETA).")
-    @click.option("--restart", is_flag=True,
-                  help="Discard finished sub-chunks of an earlier run instead of resuming.")
-    @click.option("--overwrite", is_flag=True,
-                  help="Replace an existing results file of another config.")
-    @click.option("--keep-parts", is_flag=True,
-                  help="Keep the RESULTS.parts/ work directory after assembling the store.")
-    def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts):
-        cmd_run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_parts)
-
-    run.help = cmd_run.__doc__
-
-    @group.command("slurm", short_help="Print an sbatch array script for a sweep.")
-    @click.argument("config", type=CONFIG)
-    @click.option("--chunks", type=click.IntRange(min=1), required=True,
-                  help="Number of chunks (array tasks).")
-    @click.option("--out", type=path_out, required=True, help="Run directory for the shards.")
-    @click.option("--parallel", type=click.IntRange(min=1), default=None,
-                  help="Most array tasks running at once (--array=0-{N-1}%P).")
-    @click.option("--cpus-per-task", type=click.IntRange(min=1), default=4, show_default=True,
-                  help="Cores per task (becomes the task's thread count).")
-    @click.option("--time", "time_limit", default="01:00:00", show_default=True,
-                  help="Wall-time limit per task; a task that hits it resumes when resubmitted.")
-    @click.option("--mem", default=None, help="Memory per task, e.g. 4G.")
-    @click.option("--partition", default=None, help="Slurm partition.")
-    @click.option("--account", default=None, help="Slurm account.")
-    @click.option("--job-name", default=None, help="Job name (default: sweep-NAME).")
-    @click.option("--sweep-cmd", default=None,
-                  help="Command that runs sweep on the nodes (default: this installation's).")
-    @click.option("--sbatch", "sbatch_opts", multiple=True, metavar="KEY=VALUE",
-                  help="Extra #SBATCH option, repeatable (e.g. --sbatch qos=long).")
-    def slurm_cmd(config, chunks, out, parallel, cpus_per_task, time_limit, mem, partition,
-                  account, job_name, sweep_cmd, sbatch_opts):
-        cmd_slurm(config, chunks, out, parallel, cpus_per_task, time_limit,
-                  mem, partition, account, job_name, sweep_cmd, sbatch_opts)
-
-    slurm_cmd.help = cmd_slurm.__doc__
-
-    @group.command("status", short_help="Which shards of a run directory are done.")
-    @click.argument("directory", type=click.Path(path_type=Path))
-    def status(directory):
-        cmd_status(directory)
-
-    status.help = cmd_status.__doc__
-
-    @group.command("merge", short_help="Merge finished shards into one store.")
-    @click.argument("directory", type=click.Path(path_type=Path))
-    @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
-                  help="Results store (.h5) to write.")
-    @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
-    def merge(directory, out, overwrite):
-        cmd_merge(directory, out, overwrite)
-
-    merge.help = cmd_merge.__doc__
-
-    @group.command("top", short_help="Best designs of each part, as tables.")
-    @click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
-    @click.option("--r", "r", type=float, default=None,
-                  help="Part radius (a value of the store); default: every radius.")
-    @click.option("--mu", type=float, default=None,
-                  help="Part friction (a value of the store); default: every value.")
-    @click.option("-n", "n", type=int, default=None,
-                  help="How many designs per part [default: 10 for one part, else 1].")
-    @click.option("--by", default="Lambda", show_default=True,
-                  help="Summary variable to rank by (e.g. caging_area, n_caged).")
-    @click.option("--ascending", is_flag=True, help="Smallest first.")
-    @click.option("--command", "command", type=int, default=0, show_default=True,
-                  help="Command index, for stores with several commands.")
-    def top(results, r, mu, n, by, ascending, command):
-        cmd_top(results, r, mu, n, by, ascending, command)
-
-    top.help = cmd_top.__doc__
-
-    @group.command("show", short_help="What a results store holds.")
-    @click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
-    def show(results):
-        cmd_show(results)
-
-    show.help = cmd_show.__doc__
+    for command in COMMANDS:
+        group.add_command(command)
 
 
 def main(argv=None):
     """`python -m sweep.cli_sweep ...`: the sweep commands without the rest of the CLI."""
-    group = click.Group("sweep", help="Sweep commands.")
+    group = SweepGroup("sweep", help="Sweep commands.")
     register(group)
     return group.main(args=argv, prog_name="sweep")
 

@@ -1,13 +1,14 @@
 """Self-describing HDF5 with h5py: atomic writes, dimension scales, CF flag attributes, provenance.
 
-Every file this package writes goes through `atomic_file`: it is written under a temporary name in
-the same directory and renamed into place only when complete, so a file with the final name is
-always whole. Dimensions are HDF5 dimension scales, which `xarray.open_dataset(..., engine="h5netcdf")`
-reads as labelled coordinates.
+Every HDF5 file this package writes goes through `atomic_file`: built in memory, then written
+under a temporary name in the same directory and renamed into place only when complete
+(`sweep.outputs`), so a file with the final name is always whole. Dimensions are HDF5 dimension
+scales, which `xarray.open_dataset(..., engine="h5netcdf")` reads as labelled coordinates.
 """
 from __future__ import annotations
 
 import contextlib
+import io
 import json
 import os
 import platform
@@ -20,27 +21,24 @@ import h5py
 import numpy as np
 
 from . import __version__
+from .outputs import make_parent, write_bytes_atomic
 
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike, mode: str = "w"):
-    """Yield an open h5py.File at a temporary name; rename to `path` only if the block succeeds."""
+    """Yield an h5py.File built in memory; write it to `path` atomically only if the block
+    succeeds (`sweep.outputs.write_bytes_atomic`: temporary name, fsync, rename).
+
+    In memory first, so that a full disk or a read-only folder is one clean `OutputError` naming
+    the path, never an error inside the HDF5 library (which crashed the process on ENOSPC)."""
+    if mode != "w":
+        raise ValueError(f"atomic_file writes new files only (mode 'w'), got {mode!r}")
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        with h5py.File(tmp, mode) as f:
-            yield f
-        # fsync before rename so a power cut cannot leave a complete name over incomplete data
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    make_parent(path)
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w") as f:
+        yield f
+    write_bytes_atomic(path, buffer.getbuffer())
 
 
 def write_coordinate(f: h5py.Group, name: str, values, attrs: Mapping | None = None) -> h5py.Dataset:

@@ -18,9 +18,8 @@ Only the Agg canvas is used (no pyplot, no display, no global backend switch).
 """
 from __future__ import annotations
 
+import io
 import math
-import os
-import uuid
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +33,7 @@ from matplotlib.patches import Circle, FancyArrowPatch, Patch
 from .kernels.field import downhill_neighbour
 from .kernels.part import finger_polyline
 from .model import (EJECT, END_CAGED, INFEASIBLE, REACHED, UNREACHED, VERTEX_POINT)
+from .outputs import write_bytes_atomic
 
 # How many trajectories to draw, roughly (starting points on a regular sub-lattice of the grid).
 TARGET_TRAJECTORIES = 90
@@ -381,20 +381,9 @@ def draw_map(m) -> Figure:
 
 
 def plot_map(m, path) -> Path:
-    """Write a PNG picture of map `m` to `path` atomically (temp file + os.replace).
-
-    The temp file sits next to the target (same file system) and is removed if anything fails;
-    the file gets the usual permissions (the umask applies, as for any new file).
-    """
-    path = Path(path)
-    fig = draw_map(m)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp"
-    try:
-        with open(tmp, "xb") as fh:
-            fig.savefig(fh, format="png")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+    """Write a PNG picture of map `m` to `path` atomically (`sweep.outputs.write_bytes_atomic`:
+    rendered in memory, temporary name beside the target, fsync, rename; nothing left behind if
+    anything fails)."""
+    buffer = io.BytesIO()
+    draw_map(m).savefig(buffer, format="png")
+    return write_bytes_atomic(path, buffer.getbuffer())

@@ -21,12 +21,15 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, batch
+from . import __version__, batch, mapfile, maps
 from .chunks import chunk_ranges, missing_ranges, sub_ranges
+from .model import Design, Grid, Part
+from .outputs import claim_output, remove_stale_temporaries
+from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_path,
+                     prepare_parts_dir)
 from .scene import Scene
-from .store import (KIND_PART, KIND_SHARD, CorruptFile, RunDir, StoreError, assemble,
-                    ensure_manifest, read_block, read_json, write_block, write_json_atomic,
-                    write_store)
+from .store import (KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, read_block,
+                    read_store, write_block, write_store)
 
 #: Environment variables that may carry the chunk index of an array job, with the index of their
 #: first task. SLURM and PBS arrays are written 0..N-1 (as `sweep slurm` does); SGE (`-t 1-N`) and
@@ -34,7 +37,6 @@ from .store import (KIND_PART, KIND_SHARD, CorruptFile, RunDir, StoreError, asse
 ARRAY_INDEX_VARS = (("SLURM_ARRAY_TASK_ID", 0), ("PBS_ARRAY_INDEX", 0), ("SGE_TASK_ID", 1),
                     ("LSB_JOBINDEX", 1))
 THREADS_VAR = "SLURM_CPUS_PER_TASK"
-PART_PREFIX = "items-"
 
 
 class RunError(StoreError):
@@ -132,66 +134,11 @@ def compute_items(scene: Scene, start: int, stop: int) -> np.ndarray:
     return out
 
 
-def part_path(parts_dir: Path, start: int, stop: int) -> Path:
-    return parts_dir / f"{PART_PREFIX}{start:08d}-{stop:08d}.h5"
-
-
-def _prepare_parts_dir(parts_dir: Path, scene: Scene, start: int, stop: int) -> list:
-    """Create or check the work directory; return the finished, valid parts found in it."""
-    manifest = parts_dir / "manifest.json"
-    if manifest.exists():
-        have = read_json(manifest)
-        if (have.get("config_hash"), have.get("sweep_version")) != (scene.config_hash,
-                                                                     __version__):
-            raise RunError(
-                f"{parts_dir} holds partial results of another config or sweep version "
-                f"(config {str(have.get('config_hash'))[:12]}, version "
-                f"{have.get('sweep_version')}; this run: {scene.config_hash[:12]}, "
-                f"{__version__}); delete it or pass --restart")
-    else:
-        write_json_atomic(manifest, dict(item_start=start, item_stop=stop, **scene.frozen()))
-    _remove_stale_tmp(parts_dir)
-    blocks = []
-    for p in sorted(parts_dir.glob(f"{PART_PREFIX}*.h5")):
-        try:
-            b = read_block(p, with_data=False)
-        except CorruptFile as exc:
-            print(f"sweep: discarding unreadable part {p.name}: {exc}", file=sys.stderr)
-            p.unlink()
-            continue
-        if (b.config_hash, b.version) != (scene.config_hash, __version__) or \
-                b.start < start or b.stop > stop:
-            raise RunError(f"{p}: a part of another sweep in this work directory; delete "
-                           f"{parts_dir} or pass --restart")
-        blocks.append(b)
-    return blocks
-
-
-def _remove_stale_tmp(directory: Path) -> None:
-    """Temporary files of killed writers (`.NAME.tmpPID`) whose process is gone."""
-    for p in directory.glob(".*.tmp*"):
-        pid = p.name.rsplit(".tmp", 1)[-1]
-        if pid.isdigit() and _alive(int(pid)):
-            continue
-        with contextlib.suppress(OSError):
-            p.unlink()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
 def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bool = True,
               desc: str | None = None) -> tuple[list, int, float]:
     """Compute every missing sub-chunk of items [start, stop) into `parts_dir`.
     Returns (part blocks, maps computed now, wall seconds of the compute)."""
-    blocks = _prepare_parts_dir(parts_dir, scene, start, stop)
+    blocks = prepare_parts_dir(parts_dir, scene, start, stop)
     n_w = len(scene.values["w"])
     size = scene.sub_chunk_cells or scene.group_size
     todo = [r for gap in missing_ranges(start, stop, [b.range for b in blocks])
@@ -228,56 +175,48 @@ def _progress_bar(total: int, initial: int, desc: str, enabled: bool):
 # ---------------------------------------------------------------------------------------------
 # One machine
 # ---------------------------------------------------------------------------------------------
-def parts_dir_for(out: Path) -> Path:
-    """Work directory of a single-machine run: `<RESULTS>.parts/` beside the results."""
-    return out.with_name(out.name + ".parts")
-
-
-def maps_dir_for(out: Path) -> Path:
-    return out.with_name(out.name + ".maps")
-
-
 def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bool = True,
                restart: bool = False, overwrite: bool = False,
-               keep_parts: bool = False) -> RunResult:
-    """The whole sweep on this machine into the store `out`; resumes from `<out>.parts/`."""
-    from .store import read_store
-
+               keep_parts: bool = False, wait: bool = False) -> RunResult:
+    """The whole sweep on this machine into the store `out`; resumes from `<out>.parts/`.
+    Holds the lock of `out` throughout: a second run to the same store is refused at once
+    (`sweep.outputs.OutputError`) or, with `wait`, waits for the first."""
     out = Path(out)
     t_wall = time.perf_counter()
-    if out.exists() and not overwrite:
-        try:
-            view = read_store(out)
-        except StoreError as exc:
-            raise RunError(f"{out} exists and is not a results store of this sweep ({exc}); "
-                           "pass --overwrite to replace it") from None
-        same = (view.attrs.get("config_hash"), view.attrs.get("sweep_version")) == \
-            (scene.config_hash, __version__)
-        if not same:
-            raise RunError(f"{out} holds the results of another config or sweep version; "
-                           "pass --overwrite to replace it or choose another --out")
-        if not keep_parts:   # left over if a kill came between the store's rename and cleanup
-            shutil.rmtree(parts_dir_for(out), ignore_errors=True)
-        return RunResult(out, scene.n_maps, 0, time.perf_counter() - t_wall,
-                         float(view.attrs.get("compute_seconds", 0.0)), already_done=True)
-    parts = parts_dir_for(out)
-    if restart and parts.exists():
-        shutil.rmtree(parts)
-    with numba_threads(threads) as n_threads:
-        blocks, computed, _ = run_range(scene, 0, scene.n_items, parts, progress)
-        saved = save_maps(scene, 0, scene.n_items, maps_dir_for(out))
-    compute = sum(b.compute_seconds for b in blocks)
-    full = assemble(scene, blocks)
-    wall = time.perf_counter() - t_wall
-    extra = dict(threads=n_threads)
-    if saved:
-        extra.update(saved_maps=saved, saved_maps_dir=str(maps_dir_for(out)))
-    write_store(out, scene, full, timings=dict(
-        wall_seconds=wall, compute_seconds=compute,
-        maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
-        created_by="sweep run", extra_attrs=extra)
-    if not keep_parts:
-        shutil.rmtree(parts, ignore_errors=True)
+    paths = SingleRun(out)
+    with claim_output(out, overwrite=True, wait=wait):
+        if out.exists() and not overwrite:
+            try:
+                view = read_store(out)
+            except StoreError as exc:
+                raise RunError(f"{out} exists and is not a results store of this sweep ({exc}); "
+                               "pass --overwrite to replace it") from None
+            same = (view.attrs.get("config_hash"), view.attrs.get("sweep_version")) == \
+                (scene.config_hash, __version__)
+            if not same:
+                raise RunError(f"{out} holds the results of another config or sweep version; "
+                               "pass --overwrite to replace it or choose another --out")
+            if not keep_parts:   # left over if a kill came between the store's rename and cleanup
+                shutil.rmtree(paths.parts, ignore_errors=True)
+            return RunResult(out, scene.n_maps, 0, time.perf_counter() - t_wall,
+                             float(view.attrs.get("compute_seconds", 0.0)), already_done=True)
+        if restart and paths.parts.exists():
+            shutil.rmtree(paths.parts)
+        with numba_threads(threads) as n_threads:
+            blocks, computed, _ = run_range(scene, 0, scene.n_items, paths.parts, progress)
+            saved = save_maps(scene, 0, scene.n_items, paths.maps)
+        compute = sum(b.compute_seconds for b in blocks)
+        full = assemble(scene, blocks)
+        wall = time.perf_counter() - t_wall
+        extra = dict(threads=n_threads)
+        if saved:
+            extra.update(saved_maps=saved, saved_maps_dir=str(paths.maps))
+        write_store(out, scene, full, timings=dict(
+            wall_seconds=wall, compute_seconds=compute,
+            maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
+            created_by="sweep run", extra_attrs=extra)
+        if not keep_parts:
+            shutil.rmtree(paths.parts, ignore_errors=True)
     return RunResult(out, scene.n_maps, computed, wall, compute)
 
 
@@ -285,8 +224,9 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
 # One chunk of a cluster run
 # ---------------------------------------------------------------------------------------------
 def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: int | None = None,
-              progress: bool = True, restart: bool = False) -> RunResult:
-    """Shard `chunk` of `n_chunks` into the run directory `out_dir` (resumable like run_single)."""
+              progress: bool = True, restart: bool = False, wait: bool = False) -> RunResult:
+    """Shard `chunk` of `n_chunks` into the run directory `out_dir` (resumable and locked like
+    run_single; the lock is the shard's, so other chunks run alongside)."""
     t_wall = time.perf_counter()
     if not 0 <= chunk < n_chunks:
         raise RunError(f"chunk index {chunk} outside 0..{n_chunks - 1}")
@@ -299,52 +239,39 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
     start, stop = ranges[chunk]
     shard = rundir.shard(chunk, n_chunks)
     n_maps = (stop - start) * len(scene.values["w"])
-    if shard.exists():
-        try:
-            b = read_block(shard, with_data=False)
-            if (b.config_hash, b.version, b.range) == (scene.config_hash, __version__,
-                                                       (start, stop)):
-                return RunResult(shard, n_maps, 0, time.perf_counter() - t_wall,
-                                 b.compute_seconds, already_done=True)
-        except CorruptFile:
-            pass
-        print(f"sweep: replacing unusable shard {shard.name}", file=sys.stderr)
-    parts = rundir.parts(chunk, n_chunks)
-    if restart and parts.exists():
-        shutil.rmtree(parts)
-    with numba_threads(threads):
-        blocks, computed, _ = run_range(scene, start, stop, parts, progress,
-                                        desc=f"{scene.name} {chunk}/{n_chunks}")
-        save_maps(scene, start, stop, rundir.maps)
-    compute = sum(b.compute_seconds for b in blocks)
-    data = assemble(scene, blocks, start, stop)
-    write_block(shard, scene, start, stop, data, KIND_SHARD, compute_seconds=compute,
-                chunk=chunk, n_chunks=n_chunks)
-    shutil.rmtree(parts, ignore_errors=True)
-    with contextlib.suppress(OSError):
-        parts.parent.rmdir()   # only if no other shard is in progress
+    # The shard's lock covers its work directory and its saved maps too.
+    with claim_output(rundir.root, directory=True, lock=shard, wait=wait,
+                      what=f"chunk {chunk} of {rundir.root}"):
+        if shard.exists():
+            try:
+                b = read_block(shard, with_data=False)
+                if (b.config_hash, b.version, b.range) == (scene.config_hash, __version__,
+                                                           (start, stop)):
+                    return RunResult(shard, n_maps, 0, time.perf_counter() - t_wall,
+                                     b.compute_seconds, already_done=True)
+            except CorruptFile:
+                pass
+            print(f"sweep: replacing unusable shard {shard.name}", file=sys.stderr)
+        parts = rundir.parts(chunk, n_chunks)
+        if restart and parts.exists():
+            shutil.rmtree(parts)
+        with numba_threads(threads):
+            blocks, computed, _ = run_range(scene, start, stop, parts, progress,
+                                            desc=f"{scene.name} {chunk}/{n_chunks}")
+            save_maps(scene, start, stop, rundir.maps)
+        compute = sum(b.compute_seconds for b in blocks)
+        data = assemble(scene, blocks, start, stop)
+        write_block(shard, scene, start, stop, data, KIND_SHARD, compute_seconds=compute,
+                    chunk=chunk, n_chunks=n_chunks)
+        shutil.rmtree(parts, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            parts.parent.rmdir()   # only if no other shard is in progress
     return RunResult(shard, n_maps, computed, time.perf_counter() - t_wall, compute)
 
 
 # ---------------------------------------------------------------------------------------------
 # Full maps for a named subset (outputs.save_maps)
 # ---------------------------------------------------------------------------------------------
-def map_file_name(point: dict, n_commands: int) -> str:
-    name = "map_" + "_".join(f"{k}={point[k]:.12g}"
-                             for k in ("l1", "l2", "r1", "r2", "w", "r", "mu"))
-    if n_commands > 1:
-        name += f"_command={point['command']}"
-    return name + ".h5"
-
-
-def maps_available() -> bool:
-    try:
-        from . import mapfile, maps  # noqa: F401
-    except ImportError:
-        return False
-    return hasattr(maps, "compute_map") and hasattr(mapfile, "write_map")
-
-
 def save_maps(scene: Scene, start: int, stop: int, directory: Path) -> list[str]:
     """Compute and write the full map of every `outputs.save_maps` entry whose item lies in
     [start, stop); an existing file is kept (resume) only if it was written for this config
@@ -352,25 +279,17 @@ def save_maps(scene: Scene, start: int, stop: int, directory: Path) -> list[str]
     wanted = [p for p in scene.save_maps if start <= scene.item_of(p) < stop]
     if not wanted:
         return []
-    if not maps_available():
-        print("sweep: outputs.save_maps ignored: sweep.maps.compute_map is not available in this "
-              "version", file=sys.stderr)
-        return []
-    from . import mapfile, maps
-    from .model import Design, Grid, Part
-
-    names = []
-    for p in wanted:
-        name = map_file_name(p, len(scene.commands))
+    names = [map_file_name(p, len(scene.commands)) for p in wanted]
+    # the caller holds the lock that covers these maps: their temporaries are killed writers'
+    remove_stale_temporaries(Path(directory), names=set(names), owned=True)
+    for p, name in zip(wanted, names):
         path = Path(directory) / name
         if not _saved_for(path, scene.config_hash):
             m = maps.compute_map(
                 Design(**{k: p[k] for k in ("l1", "l2", "r1", "r2", "w")}),
                 Part(r=p["r"], mu=p["mu"]), scene.commands[p["command"]], Grid(h=scene.h),
                 scene.limits, scene.accuracy, scene.effects)
-            path.parent.mkdir(parents=True, exist_ok=True)
             mapfile.write_map(path, m, {"config_hash": scene.config_hash})
-        names.append(name)
     return names
 
 

@@ -19,6 +19,7 @@ contiguous *geometry group*; chunks and sub-chunks are cut along those groups (`
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
@@ -33,8 +34,11 @@ import numpy as np
 import yaml
 
 from . import __version__
+from .batch import CELL_COLUMNS
+from .maps import BYTES_PER_POINT, grid_index_bounds
 from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
-                    Command, Design, Effects, Limits, ModelInputError, Part, validate_inputs)
+                    Command, Design, Effects, Grid, Limits, ModelInputError, Part,
+                    validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -67,6 +71,12 @@ MAX_VALUES_PER_PARAMETER = 100_000
 #: config may ask for. A fixed cap, not the free memory of the machine that validates: a config
 #: checked on a login node must mean the same on a compute node.
 MAX_MAP_BYTES = 4 * 1024**3
+
+#: `grid_points` of a grid too fine to count (any number above the memory limit would do).
+TOO_MANY_POINTS = sys.maxsize
+#: Fewest grid points a map needs along each axis: a trajectory steps to neighbours, and a caged
+#: region needs points around it.
+MIN_POINTS_PER_AXIS = 3
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -141,8 +151,6 @@ class Scene:
     def cells(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
         """Items [start, stop) as `sweep.batch` cells: float64 (n, 6) in CELL_COLUMNS order
         (l1, l2, r1, r2, r, mu), and the command index of each item (int64)."""
-        from .batch import CELL_COLUMNS
-
         ix = self.item_indices(start, stop)
         cols = [np.asarray(self.values[c], dtype=np.float64)[ix[c]] for c in CELL_COLUMNS]
         cells = np.stack(cols, axis=1) if cols[0].size else np.zeros((0, len(CELL_COLUMNS)))
@@ -201,14 +209,20 @@ class Scene:
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     """Points of the default whole-reach grid of one map (MODEL 8; as `sweep.maps.map_grid`)."""
-    from .maps import grid_index_bounds
-    from .model import Grid
-
     try:
         i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
     except ModelInputError:
-        return sys.maxsize  # too fine to count: the memory check refuses it
+        return TOO_MANY_POINTS  # too fine to count: the memory check refuses it
     return (i1 - i0 + 1) * (j1 - j0 + 1)
+
+
+def grid_shape(l1: float, l2: float, w: float, r: float, h: float) -> tuple[int, int]:
+    """(points along y, points along x) of one map's whole-reach grid; (0, 0) if too fine."""
+    try:
+        i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
+    except ModelInputError:
+        return (0, 0)
+    return (j1 - j0 + 1, i1 - i0 + 1)
 
 
 def _index_of(values, v) -> int:
@@ -236,6 +250,11 @@ def _construct_mapping(loader, node, deep=False):
 
 
 _UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+# YAML 1.1 (PyYAML) reads 1e-12 (no dot) as a string; read it as the number YAML 1.2 and every
+# reader means, so that numbers can be checked strictly (a quoted "0.2" is refused).
+_UniqueKeyLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float", re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -260,9 +279,12 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     raw = _mapping(raw, "config", TOP_KEYS, required=("designs", "parts"))
 
     name = raw.get("name", default_name)
-    if not isinstance(name, str) or not _NAME_RE.match(name):
-        raise SceneError(f"name: must be letters, digits, '_', '.' or '-' (used in file and job "
-                         f"names), got {name!r}")
+    if not isinstance(name, str):
+        raise SceneError(f"name: must be text, got the {type(name).__name__} {name!r}; quote it "
+                         f"(name: \"{name}\")")
+    if not _NAME_RE.match(name):
+        raise SceneError(f"name: must start with a letter or digit and hold only letters, "
+                         f"digits, '_', '.' or '-' (used in file and job names), got {name!r}")
 
     values = {}
     designs = _mapping(raw["designs"], "designs", DESIGN_KEYS, required=DESIGN_KEYS)
@@ -336,6 +358,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
                 raise SceneError(f"config: {exc}") from None
 
     _check_memory(values, h)
+    _check_coarse(values, h)
 
     outputs = _mapping(raw.get("outputs", {}) or {}, "outputs", OUTPUT_KEYS)
     save_maps = _save_maps(outputs.get("save_maps", []) or [], values, len(commands))
@@ -371,15 +394,16 @@ def _join(prefix: str, k) -> str:
 
 
 def _number(v, key: str) -> float:
-    """A finite number. Strings that read as numbers are accepted, because YAML 1.1 reads
-    ``1e-12`` (no dot) as a string."""
+    """A finite number. Quoted strings are refused, as a strict schema would (the loader reads
+    YAML 1.1's unquoted ``1e-12`` as a number)."""
     if isinstance(v, bool):
         raise SceneError(f"{key}: must be a number, got {v!r}")
     if isinstance(v, str):
-        try:
-            v = float(v)
-        except ValueError:
-            raise SceneError(f"{key}: must be a number, got {v!r}") from None
+        hint = ""
+        with contextlib.suppress(ValueError):
+            float(v)
+            hint = " (a quoted string: write the number without quotes)"
+        raise SceneError(f"{key}: must be a number, got {v!r}{hint}")
     if not isinstance(v, (int, float)) or not math.isfinite(v):
         raise SceneError(f"{key}: must be a finite number, got {v!r}")
     return float(v)
@@ -456,16 +480,33 @@ def _commands(spec) -> tuple[Command, ...]:
 
 
 def _check_memory(values: dict, h: float) -> None:
-    from .maps import BYTES_PER_POINT
-
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
     points = grid_points(l1, l2, w, r, h)
+    if points == TOO_MANY_POINTS:
+        raise SceneError(f"grid.h: {h!r} gives the largest design (l1={l1}, l2={l2}, w={w}, "
+                         f"r={r}) too many grid points to count (over 1e9 per axis), far above "
+                         f"the {MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h or "
+                         f"smaller designs")
     need = points * BYTES_PER_POINT
     if need > MAX_MAP_BYTES:
         raise SceneError(
             f"grid.h: {h!r} gives {points:,} grid points for the largest design (l1={l1}, "
             f"l2={l2}, w={w}, r={r}), about {need / 1024**3:.1f} GiB per map, above the "
             f"{MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h")
+
+
+def _check_coarse(values: dict, h: float) -> None:
+    """Every map of the sweep has at least MIN_POINTS_PER_AXIS grid points along x and y."""
+    for l1 in values["l1"]:
+        for l2 in values["l2"]:
+            for w in values["w"]:
+                for r in values["r"]:
+                    ny, nx = grid_shape(l1, l2, w, r, h)
+                    if min(ny, nx) < MIN_POINTS_PER_AXIS:
+                        raise SceneError(
+                            f"grid.h: {h!r} gives the map of l1={l1}, l2={l2}, w={w}, r={r} only "
+                            f"{nx} x {ny} grid points (x by y), fewer than "
+                            f"{MIN_POINTS_PER_AXIS} along an axis; use a smaller grid.h")
 
 
 def _save_maps(spec, values: dict, n_commands: int) -> tuple[dict, ...]:

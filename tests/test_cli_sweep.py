@@ -23,6 +23,7 @@ from click.testing import CliRunner
 from sweep import batch, runner
 from sweep.batch import SUMMARY_FIELDS
 from sweep.cli_sweep import register
+from sweep.rundir import SingleRun, prepare_parts_dir
 from sweep.scene import scene_from_dict
 from sweep.slurm import sbatch_script
 from sweep.store import read_block, read_store
@@ -218,8 +219,7 @@ def test_foreign_work_directory_needs_restart(cli, reference, tmp_path):
     cfg, single = reference
     other = write_config(tmp_path / "other.yaml", tiny(grid={"h": 0.3}))
     out = tmp_path / "a.h5"
-    runner._prepare_parts_dir(runner.parts_dir_for(out), scene_from_dict(tiny(grid={"h": 0.3})),
-                              0, 1)
+    prepare_parts_dir(SingleRun(out).parts, scene_from_dict(tiny(grid={"h": 0.3})), 0, 1)
     res = invoke(cli, "run", cfg, "--out", out, "--no-progress")
     assert res.exit_code == 2 and "--restart" in res.output and not out.exists()
     res = invoke(cli, "run", cfg, "--out", out, "--no-progress", "--restart")
@@ -396,10 +396,6 @@ def test_show_refuses_other_files(cli, tmp_path):
 
 
 def test_saved_maps_agree_with_the_summaries(cli, tmp_path):
-    from sweep.runner import maps_available
-
-    if not maps_available():
-        pytest.skip("sweep.maps.compute_map not available")
     point = dict(l1=1.2, l2=0.8, r1=0.12, r2=0.1, w=0.5, r=0.4, mu=0.7)
     cfg = write_config(tmp_path / "tiny.yaml",
                        tiny(outputs={"save_maps": [point]}, designs={"l1": [1.2]}))

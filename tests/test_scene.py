@@ -48,7 +48,6 @@ def test_small_config_is_small():
     pytest.param({"lower": 0.5, "upper": 0.5, "step": 0.1}, (0.5,), id="one-value-range"),
     pytest.param([0.4, 1.6], (0.4, 1.6), id="list"),
     pytest.param(0.8, (0.8,), id="scalar"),
-    pytest.param("1e-1", (0.1,), id="yaml-1.1-exponent-string"),
 ])
 def test_parameter_expansion(spec, expected):
     s = scene_from_dict(tiny(designs={"w": spec}))

@@ -12,10 +12,10 @@ from sweep.batch import SUMMARY_FIELDS
 from sweep.chunks import chunk_ranges
 from sweep.model import Command
 from sweep.scene import STORE_DIMS, scene_from_dict
-from sweep.store import (KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, RunDir, StoreError,
-                         assemble, ensure_manifest, merge_shards, read_block, read_store,
-                         scene_from_frozen,
-                         scan_shards, store_arrays, write_block, write_store)
+from sweep.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
+from sweep.store import (KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError,
+                         assemble, read_block, read_store, scene_from_frozen, store_arrays,
+                         write_block, write_store)
 from sweep_cases import fake_summaries, tiny
 
 

@@ -1,0 +1,4 @@
+"""`python -m sweep ...`: the same program as the `sweep` console script."""
+from .program import main
+
+main()

@@ -1,0 +1,349 @@
+"""Every file the tool writes goes through here: target checks, the output lock, atomic writes,
+clean-up of temporaries left by killed writers, and one-line errors for file-system failures.
+
+- `claim_output(path)` is taken before anything is computed for an output: it refuses a
+  directory, a parent that is a file, an existing file (unless `overwrite`), a folder that cannot
+  be written, and a second writer (lock file `PATH.lock`, see `OutputLock`); while it is held it
+  removes the temporaries of earlier, killed writers of that output.
+- `write_bytes_atomic(path, data)` writes under a temporary name in the same directory
+  (`.NAME.tmp.HOST.PID`), fsyncs, then renames: a file under its final name is always complete.
+  HDF5 (`sweep.h5.atomic_file`), JSON and PNG files are all rendered to bytes in memory first, so
+  a full disk is a plain `OSError` here and never an error inside the HDF5 library (which crashed
+  the process on ENOSPC).
+- Every `OSError` of a write becomes an `OutputError` whose one-line message names the path and
+  says what happened ("no space left on device", "read-only file system", ...).
+
+Locking: a lock file `PATH.lock` holding host, pid and command, made by hard-linking a unique,
+complete file to the lock name (open(2)'s advice for NFS; atomic on local disks, every NFS
+version and Lustre), with O_EXCL as the fallback where hard links are missing. Not `flock`
+(node-local on Lustre mounted `localflock`, an error with `noflock`) nor `fcntl` (needs lockd on
+NFSv3, and its release may lag a crashed client). A lock whose holder is on this host and no
+longer running is stale and taken over; a holder on another host cannot be checked from here,
+so the message names it and the lock file to delete if that job is gone. See docs/sweeps.md,
+"Failure modes".
+"""
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import socket
+import sys
+import time
+from pathlib import Path
+
+HOST = socket.gethostname()
+TMP_TAG = ".tmp."
+LOCK_SUFFIX = ".lock"
+#: How often a writer asked to wait (`--wait`) looks at the lock again.
+LOCK_POLL_SECONDS = 0.5
+
+
+class OutputError(OSError):
+    """An output that cannot be written (CLI: one line, exit code 2). An OSError, so callers
+    that handle file-system failures keep handling it."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Messages
+# ---------------------------------------------------------------------------------------------
+_REASONS = {
+    errno.ENOSPC: "no space left on device",
+    errno.EDQUOT: "disk quota exceeded",
+    errno.EROFS: "read-only file system",
+    errno.EACCES: "permission denied",
+    errno.EPERM: "operation not permitted",
+    errno.ENOTDIR: "a path component is a file, not a directory",
+    errno.EISDIR: "is a directory",
+    errno.ENAMETOOLONG: "file name too long",
+    errno.EIO: "input/output error",
+}
+
+
+def os_error_message(exc: OSError, path: Path, doing: str = "cannot write") -> str:
+    """'PATH: cannot write: no space left on device' - one line, the path the user gave."""
+    reason = _REASONS.get(exc.errno) or exc.strerror or type(exc).__name__
+    return f"{path}: {doing}: {reason}"
+
+
+@contextlib.contextmanager
+def os_errors_named(path: Path, doing: str = "cannot write"):
+    """Turn any OSError of the block into an OutputError naming `path`."""
+    try:
+        yield
+    except OutputError:
+        raise
+    except OSError as exc:
+        err = OutputError(os_error_message(exc, path, doing))
+        err.errno = exc.errno           # callers may add advice (e.g. on ENOSPC)
+        raise err from None
+
+
+# ---------------------------------------------------------------------------------------------
+# Atomic writes
+# ---------------------------------------------------------------------------------------------
+def temp_path(path: Path) -> Path:
+    """The temporary name of `path` for this process; host and pid say whose it is."""
+    return path.with_name(f".{path.name}{TMP_TAG}{HOST}.{os.getpid()}")
+
+
+def make_parent(path: Path) -> None:
+    parent = Path(path).parent
+    with os_errors_named(parent, "cannot create folder"):
+        for p in (parent, *parent.parents):     # a file in the way: say which one
+            if p.exists() and not p.is_dir():
+                raise OutputError(f"{path}: {p} is a file, not a directory")
+            if p.exists():
+                break
+        parent.mkdir(parents=True, exist_ok=True)
+
+
+def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+    """Write `data` to `path` atomically (temporary name, fsync, rename); OutputError on failure,
+    with nothing left behind."""
+    path = Path(path)
+    make_parent(path)
+    tmp = temp_path(path)
+    try:
+        with os_errors_named(path):
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+            try:
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(fd, view):]
+                # fsync before the rename: a power cut must not leave a complete name over
+                # incomplete data
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+    return path
+
+
+def _write_new(path: Path, data: bytes, exclusive: bool = False) -> None:
+    """Write a small file; with `exclusive`, only if it does not exist (O_EXCL). A failed write
+    removes the file (a full disk must not leave an empty lock behind)."""
+    flags = os.O_WRONLY | os.O_CREAT | (os.O_EXCL if exclusive else os.O_TRUNC)
+    fd = os.open(path, flags, 0o644)
+    try:
+        try:
+            os.write(fd, data)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+    except OSError:
+        with contextlib.suppress(OSError):
+            path.unlink()
+        raise
+
+
+def write_json_atomic(path: str | os.PathLike, obj) -> Path:
+    text = json.dumps(obj, indent=1, sort_keys=True)
+    return write_bytes_atomic(path, text.encode())
+
+
+def _parse_temp(name: str) -> tuple[str, str, int | None] | None:
+    """'.NAME.tmp.HOST.PID' -> (NAME, HOST, PID); the older '.NAME.tmpPID' -> (NAME, '', PID)."""
+    if not name.startswith("."):
+        return None
+    if TMP_TAG in name:
+        target, _, rest = name[1:].rpartition(TMP_TAG)
+        host, _, pid = rest.rpartition(".")
+        return (target, host, int(pid)) if pid.isdigit() and host else None
+    target, sep, pid = name[1:].rpartition(".tmp")
+    if sep and pid.isdigit():
+        return target, "", int(pid)
+    return None
+
+
+def remove_stale_temporaries(directory: Path, names=None, owned: bool = False) -> list[Path]:
+    """Remove temporaries of killed writers in `directory` (only those of `names`, if given).
+
+    A temporary is stale when its writer (host, pid) is this host's and no longer running; with
+    `owned`, the caller holds the lock of these outputs, so every writer of them is gone,
+    whatever host it ran on."""
+    removed = []
+    directory = Path(directory)
+    if not directory.is_dir():
+        return removed
+    for p in directory.iterdir():
+        parsed = _parse_temp(p.name)
+        if parsed is None or (names is not None and parsed[0] not in names):
+            continue
+        target, host, pid = parsed
+        if not owned and (host not in ("", HOST) or _alive(pid)):
+            continue
+        if pid == os.getpid() and host in ("", HOST):
+            continue                                    # our own write in progress
+        with contextlib.suppress(OSError):
+            p.unlink()
+            removed.append(p)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+# ---------------------------------------------------------------------------------------------
+# The output lock
+# ---------------------------------------------------------------------------------------------
+def lock_path(path: Path) -> Path:
+    return Path(path).with_name(Path(path).name + LOCK_SUFFIX)
+
+
+class OutputLock:
+    """Exclusive right to write one output (a file, or a shard with its work directory).
+
+    The lock file `PATH.lock` appears atomically with JSON {host, pid, command, since} in it
+    (`_try_create`).
+    `acquire` refuses at once (OutputError naming the holder) unless `wait`; a lock of a process
+    of this host that is gone is removed first."""
+
+    def __init__(self, target: Path, what: str | None = None):
+        self.target = Path(target)
+        self.path = lock_path(self.target)
+        self.what = what or str(self.target)
+        self.held = False
+
+    def holder(self) -> dict | None:
+        """Who holds the lock (JSON of the lock file), {} if unreadable, None if free."""
+        try:
+            return json.loads(self.path.read_text() or "{}")
+        except FileNotFoundError:
+            return None
+        except (OSError, ValueError):
+            return {}                     # being written right now, or damaged
+
+    def _try_create(self) -> bool:
+        """Create the lock file, complete with its holder, in one atomic step (True), or find it
+        taken (False). The holder is written to a unique file first and hard-linked to the lock
+        name, as open(2) advises for NFS: link(2) is atomic on every NFS version and on Lustre,
+        and a lost reply is caught by the link count. Where hard links are not supported the
+        lock is created with O_EXCL."""
+        info = dict(host=HOST, pid=os.getpid(), command=" ".join(sys.argv),
+                    since=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+        unique = temp_path(self.path)
+        try:
+            _write_new(unique, json.dumps(info).encode())
+            try:
+                os.link(unique, self.path)
+                return True
+            except FileExistsError:
+                return os.stat(unique).st_nlink == 2
+            except OSError as exc:
+                if exc.errno not in (errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EMLINK):
+                    raise
+            try:
+                _write_new(self.path, json.dumps(info).encode(), exclusive=True)
+            except FileExistsError:
+                return False
+            return True
+        finally:
+            with contextlib.suppress(FileNotFoundError):
+                unique.unlink()
+
+    def _remove_if_stale(self, holder: dict | None) -> bool:
+        """Remove the lock if its holder is a dead process of this host. True if removed."""
+        if not holder or holder.get("host") != HOST or not isinstance(holder.get("pid"), int):
+            return False
+        if _alive(holder["pid"]):
+            return False
+        # Move it aside first, so two processes that both found it stale cannot both remove a
+        # lock that a third has just created.
+        aside = self.path.with_name(f".{self.path.name}.stale.{HOST}.{os.getpid()}")
+        try:
+            os.rename(self.path, aside)
+        except FileNotFoundError:
+            return True
+        try:
+            moved = json.loads(aside.read_text() or "{}")
+        except (OSError, ValueError):
+            moved = {}
+        if moved == holder:
+            aside.unlink()
+            return True
+        with contextlib.suppress(OSError):      # we moved a fresh lock: put it back
+            os.link(aside, self.path)
+        aside.unlink()
+        return False
+
+    def refusal(self, holder: dict | None) -> str:
+        if holder:
+            who = (f"pid {holder.get('pid')} on host {holder.get('host')}"
+                   + (f", `{holder['command']}`" if holder.get("command") else "")
+                   + (f" since {holder['since']}" if holder.get("since") else ""))
+        else:
+            who = "another process"
+        return (f"{self.what} is being written by {who}; wait for it (or pass --wait), or "
+                f"delete {self.path} if that process is gone")
+
+    def acquire(self, wait: bool = False) -> "OutputLock":
+        make_parent(self.path)
+        with os_errors_named(self.target):
+            while True:
+                if self._try_create():
+                    self.held = True
+                    return self
+                holder = self.holder()
+                if holder is None or self._remove_if_stale(holder):
+                    continue
+                if not wait:
+                    raise OutputError(self.refusal(holder))
+                time.sleep(LOCK_POLL_SECONDS)
+
+    def release(self) -> None:
+        if self.held:
+            with contextlib.suppress(OSError):
+                self.path.unlink()
+            self.held = False
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+@contextlib.contextmanager
+def claim_output(path: str | os.PathLike, *, overwrite: bool = True, directory: bool = False,
+                 wait: bool = False, what: str | None = None, lock: Path | None = None):
+    """Check and lock an output before any work; yield the lock; release it at the end.
+
+    `directory`: the output is a run directory (it may exist). Otherwise it is a file: refused if
+    it is a directory, or exists and not `overwrite`. While held, temporaries of killed writers
+    of the output are removed. `lock` names the locked object when it is not `path` itself
+    (one shard of a run directory)."""
+    path = Path(path)
+    if directory:
+        if path.exists() and not path.is_dir():
+            raise OutputError(f"{path}: is a file, not a directory")
+        make_parent(path / "x")
+    else:
+        if path.is_dir():
+            raise OutputError(f"{path}: is a directory")
+        make_parent(path)
+        if path.exists() and not overwrite:
+            raise OutputError(f"{path}: exists; pass --overwrite to replace it")
+    held = OutputLock(lock or path, what=what).acquire(wait=wait)
+    try:
+        if not directory and path.exists() and not overwrite:
+            # created by the writer we waited for
+            raise OutputError(f"{path}: exists; pass --overwrite to replace it")
+        target = lock or path
+        remove_stale_temporaries(target.parent, names={target.name}, owned=True)
+        # a lock's temporary may be a live rival's attempt to take it: only dead ones go
+        remove_stale_temporaries(target.parent, names={held.path.name})
+        yield held
+    finally:
+        held.release()
