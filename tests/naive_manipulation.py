@@ -19,6 +19,7 @@ Decisions spelled out here (the lead's rules for the reference):
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import linprog
@@ -190,10 +191,12 @@ def finger_offsets(i, h, w):
     return -(i * h) - w / 2.0, i * h - w / 2.0
 
 
+@lru_cache(maxsize=None)   # configurations do not depend on the command: reuse across scenarios
 def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA2_MAX):
     """Per-unit-tension resultants of both fingers at lattice pose (i, j), already times S_geo.
 
-    Returns dict(counts, reason, f_left, f_right (world frame), s_geo, crossed, unique)."""
+    Returns dict(counts, reason, f_left, f_right (world frame), s_geo, crossed, unique); the
+    result is cached and shared: do not modify it."""
     w, l1, l2, r1, r2 = geometry
     r, mu = part
     px, py = i * h, r + j * h
@@ -288,6 +291,7 @@ def naive_metric(geometries, part, h, commands, poses=None, search_ranges=PAPER_
       forces (per pose: (geometry index of each counted force, forces (n, 2)), commands in order
       within each geometry)."""
     geometries = [tuple(float(v) for v in g) for g in geometries]
+    part = tuple(float(v) for v in part)
     r, _ = part
     default = poses is None
     if default:
