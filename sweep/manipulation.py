@@ -90,6 +90,21 @@ class HullReduction:
             self._grow(2 * self.capacity)
             todo = overflow
 
+    def add_geometry(self, f_left, f_right, counts, commands, geometry_index: int,
+                     params) -> None:
+        """Add one geometry under every command (MODEL 10): at each counted pose the force
+        F_left f_left + F_right f_right for each (F_left, F_right) in commands.
+
+        f_left, f_right: (n_poses, 2) per-unit-tension resultants of each finger on the part,
+        world frame, already multiplied by the pose's S_geo."""
+        f_left = np.asarray(f_left, dtype=np.float64)
+        f_right = np.asarray(f_right, dtype=np.float64)
+        if f_left.shape != (self.n_poses, 2) or f_right.shape != (self.n_poses, 2):
+            raise ValueError(f"f_left and f_right must have shape ({self.n_poses}, 2)")
+        for f_l, f_r in commands:
+            force = f_l * f_left + f_r * f_right
+            self.add(force[:, 0], force[:, 1], counts, geometry_index, params)
+
     def merge(self, other: "HullReduction") -> "HullReduction":
         """A new reduction holding the union of both (the hull of the union of their forces)."""
         if other.n_poses != self.n_poses:

@@ -7,7 +7,8 @@ import pytest
 
 from naive import naive_finger
 from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, THETA2_MAX, THETA2_MIN,
-                                finger_forces, naive_metric, on_limit, rot90, world_lattice)
+                                finger_forces, naive_metric, on_limit, pose_forces, rot90,
+                                world_lattice)
 from sweep.manipulation import PAPER_SEARCH_RANGES, HullReduction
 from sweep.model import DISTAL_ONLY, PROXIMAL_ONLY, TWO_PHALANX
 
@@ -173,3 +174,21 @@ def test_hull_reduction_on_reference_forces(scenario, request):
     np.testing.assert_allclose(red.values(), ref["values"].ravel(), rtol=1e-9, atol=1e-13)
     np.testing.assert_allclose(red.parameter_usage(PAPER_SEARCH_RANGES), ref["usage"],
                                rtol=1e-12)
+
+
+@pytest.mark.parametrize("scenario, commands", [("scenario_a", SCENARIO_A_COMMANDS),
+                                                ("scenario_b", SCENARIO_B_COMMANDS)])
+def test_add_geometry_combines_the_commands(scenario, commands, request):
+    """add_geometry with the per-finger resultants of every pose = the reference metric."""
+    ref = request.getfixturevalue(scenario)
+    n_poses = len(ref["poses"])
+    red = HullReduction.empty(n_poses)
+    for g, geometry in enumerate(GEOMETRIES):
+        f_left, f_right = np.zeros((n_poses, 2)), np.zeros((n_poses, 2))
+        counts = np.zeros(n_poses, dtype=bool)
+        for k, (i, j) in enumerate(ref["poses"]):
+            pf = pose_forces(geometry, PART, i, j, H)
+            f_left[k], f_right[k], counts[k] = pf["f_left"], pf["f_right"], pf["counts"]
+        red.add_geometry(f_left, f_right, counts, commands, g, geometry)
+    np.testing.assert_allclose(red.values(), ref["values"].ravel(), rtol=1e-9, atol=1e-13)
+    np.testing.assert_allclose(red.parameter_usage(), ref["usage"], rtol=1e-12)
