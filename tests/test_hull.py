@@ -338,3 +338,19 @@ def test_merge_of_random_splits_equals_one_pass_bitwise(seed, cuts, rnd):
         i = rnd.randrange(len(parts) - 1)
         parts[i:i + 2] = [parts[i].merge(parts[i + 1])]
     assert_same(summary(parts[0]), one_pass)
+
+
+def test_vertices_closer_than_the_tolerance_share_their_geometries():
+    # (1, 1) and (1 + 1e-13, 1 - 1e-13) are both hull vertices, and coincide (MODEL 10).
+    red = HullReduction.empty(1)
+    corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0), (1.0 + 1e-13, 1.0 - 1e-13)]
+    for g, (x, y) in enumerate(corners):
+        red.add([x], [y], [True], g, np.full(5, float(g)))
+    hull = red.hull(0)
+    assert len(hull["x"]) == 5
+    close_pair = np.flatnonzero((hull["x"] >= 1.0) & (hull["y"] > 0.5))
+    assert len(close_pair) == 2
+    for k in close_pair:                            # each counts geometries 2 and 4
+        assert hull["first_geometry"][k] == 2
+        np.testing.assert_array_equal(hull["param_min"][k], np.full(5, 2.0))
+        np.testing.assert_array_equal(hull["param_max"][k], np.full(5, 4.0))

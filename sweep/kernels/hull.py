@@ -496,7 +496,8 @@ def reduction_values(pts, n_hull, values):
 @njit(cache=True)
 def vertex_groups(row, row_first, nh, nk, group_min, group_max, group_first):
     """Per hull vertex: parameter ranges and smallest geometry index over every geometry whose
-    force coincides with the vertex (exactly, or a near point within COINCIDE_REL |v|)."""
+    force coincides with the vertex (exactly, or another kept point within COINCIDE_REL |v|,
+    which may be a near point or, on a hull with vertices closer than that, another vertex)."""
     for i in range(nh):
         for c in range(N_PARAMS):
             group_min[i, c] = row[i, PMIN + c]
@@ -504,8 +505,8 @@ def vertex_groups(row, row_first, nh, nk, group_min, group_max, group_first):
         group_first[i] = row_first[i]
         vx, vy = row[i, X], row[i, Y]
         tol = COINCIDE_REL * math.hypot(vx, vy)
-        for k in range(nh, nk):
-            if math.hypot(row[k, X] - vx, row[k, Y] - vy) <= tol:
+        for k in range(nk):
+            if k != i and math.hypot(row[k, X] - vx, row[k, Y] - vy) <= tol:
                 for c in range(N_PARAMS):
                     group_min[i, c] = min(group_min[i, c], row[k, PMIN + c])
                     group_max[i, c] = max(group_max[i, c], row[k, PMAX + c])
