@@ -6,6 +6,7 @@ part      part equilibrium, containment, opening (MODEL 7, 8)
 records   the parameter and result records every kernel takes and returns
 field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
 cells     many maps at once: summaries of cells x palm widths from shared finger fields
+hull      exact 2-D convex hulls of forces per pose, mergeable (manipulation metric, MODEL 10)
 
 Compiled kernels are cached on disk (`cache=True`). Numba checks only the file of the function it
 loads, so a kernel that inlines a changed function from another file would load stale code: the
@@ -40,6 +41,6 @@ def _cache_root() -> Path:
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
 try:
-    from . import cells, field, finger, geometry, part, records  # noqa: E402,F401
+    from . import cells, field, finger, geometry, hull, part, records  # noqa: E402,F401
 finally:
     numba.config.CACHE_DIR = _user_cache_dir
