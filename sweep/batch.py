@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
-from .kernels.records import Hand
+from .kernels.records import Hand, ManipulationOut
+from .manipulation import REDUCTIONS, ManipulationChunk, PartReduction
 from .maps import (
     finger_offsets,
     grid_index_bounds,
@@ -19,7 +20,8 @@ from .maps import (
     palm_half_width_steps,
     summary_attrs,
 )
-from .model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
+from .model import (GRID_TOL, Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError,
+                    Part)
 from .schema import SUMMARY_FIELDS
 
 CELL_COLUMNS = ("l1", "l2", "r1", "r2", "r", "mu")
@@ -59,7 +61,7 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
                                command.f_left, command.f_right, th2min, th2max, solver, blocks,
-                               out)
+                               out, None)
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
@@ -90,3 +92,89 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
         float(command.f_right), True, forces)
     return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
         summary_attrs(summary)
+
+
+# ---------------------------------------------------------------------------------------------
+# The manipulation metric inside the sweep (MODEL 10)
+# ---------------------------------------------------------------------------------------------
+#: Scenario A's commands F_left (F_right = 2 - F_left): MODEL 10 lists 0.2, 0.4, ..., 1.8; one
+#: geometry's forces F_left f_L + (2 - F_left) f_R lie on a segment, so only its ends can be hull
+#: vertices and the metric is that of the two extreme commands, which are the ones computed.
+SCENARIO_A_COMMANDS = tuple(round(0.2 * k, 12) for k in range(1, 10))
+SCENARIO_A_EXTREMES = (SCENARIO_A_COMMANDS[0], SCENARIO_A_COMMANDS[-1])
+ENTRY_CAPACITY = 4096  # counted (pose, width) pairs per cell before the cell is redone bigger
+
+
+def part_lattice_columns(max_w: float, max_l1: float, max_l2: float, r: float, h: float) -> int:
+    """N of a part's shared pose lattice x = i h, |i| <= N (MODEL 10: the world grid of the
+    largest reach, MODEL 8), for every design of a sweep."""
+    return int(np.floor((0.5 * max_w + max_l1 + max_l2 + r) / h + GRID_TOL))
+
+
+def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: Limits,
+                       accuracy: Accuracy, effects: Effects, items: np.ndarray,
+                       part_keys: np.ndarray, lattice_ncol: np.ndarray,
+                       capacity: int = ENTRY_CAPACITY) -> tuple[np.ndarray, ManipulationChunk]:
+    """Summaries (as `summarize_cells` with the command 1/1) and the manipulation data of cells
+    whose items are `items` (consecutive work-item indices): Scenario A's metric per cell and
+    Scenario B's reductions per part (`part_keys[c]` = (r index, mu index) of cell c, whose
+    lattice has columns -lattice_ncol[c] .. lattice_ncol[c]). Geometry index of a map: its item
+    index x n_w + its width index."""
+    cells = np.ascontiguousarray(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
+    widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
+    items = np.asarray(items, dtype=np.int64)
+    if not effects.friction:
+        cells = cells.copy()
+        cells[:, 5] = 0.0
+    n = cells.shape[0]
+    steps = [palm_half_width_steps(w, h) for w in widths]
+    if any(s is None for s in steps):
+        raise ModelInputError("the manipulation metric needs every palm half-width to be a whole "
+                              f"number of grid steps (w a multiple of 2h = {2 * h:g})")
+    _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
+                                       effects)
+    bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
+              for c in cells]
+    ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
+    nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
+    while True:
+        out = np.zeros((n, widths.size, len(SUMMARY_FIELDS)))
+        manip = ManipulationOut(
+            np.zeros((n, capacity), dtype=np.int64), np.zeros((n, capacity)),
+            np.zeros((n, capacity)), np.zeros((n, capacity), dtype=np.int64),
+            np.zeros((n, capacity), dtype=np.bool_), np.zeros(n, dtype=np.int64), np.zeros(n),
+            np.ascontiguousarray(lattice_ncol, dtype=np.int64),
+            np.array(SCENARIO_A_EXTREMES, dtype=np.float64))
+        summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
+                               1.0, 1.0, limits.theta2_min, limits.theta2_max, solver, blocks,
+                               out, manip)
+        if manip.n_entries.max(initial=0) <= capacity:
+            break
+        capacity = int(2 ** np.ceil(np.log2(manip.n_entries.max())))
+    parts: dict = {}
+    keys = [tuple(int(v) for v in k) for k in np.asarray(part_keys).reshape(-1, 2)]
+    for key in sorted(set(keys)):
+        rows = [c for c in range(n) if keys[c] == key]
+        pose, fx, fy, geom, params, crossed = [], [], [], [], [], []
+        for c in rows:
+            m = int(manip.n_entries[c])
+            k = manip.width[c, :m]
+            l1, l2, r1, r2 = cells[c, :4]
+            pose.append(manip.pose[c, :m])
+            fx.append(manip.fx[c, :m])
+            fy.append(manip.fy[c, :m])
+            geom.append(items[c] * widths.size + k)
+            params.append(np.column_stack([widths[k], np.full((m, 4), (l1, l2, r1, r2))]))
+            crossed.append(manip.crossed[c, :m])
+        pose, fx, fy, geom = (np.concatenate(v) for v in (pose, fx, fy, geom))
+        params = np.concatenate(params).reshape(-1, 5)
+        crossed = np.concatenate(crossed)
+        keep = ~crossed
+        parts[key] = {
+            "all": PartReduction.from_entries(pose, fx, fy, geom, params),
+            "uncrossed": PartReduction.from_entries(pose[keep], fx[keep], fy[keep], geom[keep],
+                                                    params[keep]),
+        }
+        assert tuple(parts[key]) == REDUCTIONS
+    start = int(items[0]) if n else 0
+    return out, ManipulationChunk(start, start + n, manip.a_metric.copy(), parts)

@@ -199,3 +199,128 @@ class HullReduction:
         out.n_hull[:] = n_hull
         out.n_kept[:] = n_kept
         return out
+
+    def add_entries(self, pose, fx, fy, geometry, params) -> None:
+        """Add a batch of forces, entry e at pose[e] (an index of this reduction's poses), with
+        its geometry index and parameters (n_entries, 5). Order-independent like `add`."""
+        pose = np.asarray(pose, dtype=np.int64)
+        order = np.argsort(pose, kind="stable")
+        pose = pose[order]
+        fx = np.ascontiguousarray(np.asarray(fx, dtype=np.float64)[order])
+        fy = np.ascontiguousarray(np.asarray(fy, dtype=np.float64)[order])
+        geometry = np.ascontiguousarray(np.asarray(geometry, dtype=np.int64)[order])
+        params = np.ascontiguousarray(np.asarray(params, dtype=np.float64)[order])
+        if pose.size and (pose[0] < 0 or pose[-1] >= self.n_poses):
+            raise ValueError("entry pose outside the reduction")
+        if not (np.isfinite(fx).all() and np.isfinite(fy).all()):
+            raise ValueError("a counted force is not finite")
+        seg_start = np.searchsorted(pose, np.arange(self.n_poses + 1), side="left")
+        done = np.zeros(self.n_poses, dtype=np.int64)
+        status = np.zeros(self.n_poses, dtype=np.int64)
+        while True:
+            _hull.reduction_add_entries(self.points, self.first, self.n_hull, self.n_kept,
+                                        seg_start, fx, fy, geometry, params, done, status,
+                                        _n_blocks())
+            if not (status == _hull.STATUS_OVERFLOW).any():
+                return
+            self._grow(2 * self.capacity)
+
+
+# ---------------------------------------------------------------------------------------------
+# Sparse per-part reductions and the manipulation data of a chunk of work items
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class PartReduction:
+    """A HullReduction over the poses of one part's lattice that ever received a force:
+    `pose_ids` (sorted, unique flat lattice indices) name its rows. Memory follows the counted
+    poses (about 1% of a map's points), not the whole lattice."""
+
+    pose_ids: np.ndarray
+    reduction: HullReduction
+
+    @classmethod
+    def from_entries(cls, pose, fx, fy, geometry, params) -> "PartReduction":
+        pose = np.asarray(pose, dtype=np.int64)
+        ids = np.unique(pose)
+        red = HullReduction.empty(ids.size)
+        red.add_entries(np.searchsorted(ids, pose), fx, fy, geometry, params)
+        return cls(ids, red)
+
+    def merge(self, other: "PartReduction") -> "PartReduction":
+        ids = np.union1d(self.pose_ids, other.pose_ids)
+        return PartReduction(ids, self._expand(ids).merge(other._expand(ids)))
+
+    def _expand(self, ids: np.ndarray) -> HullReduction:
+        """This reduction's rows placed on the (larger, sorted) pose set `ids`."""
+        out = HullReduction.empty(ids.size, self.reduction.capacity)
+        rows = np.searchsorted(ids, self.pose_ids)
+        out.points[rows] = self.reduction.points
+        out.first[rows] = self.reduction.first
+        out.n_hull[rows] = self.reduction.n_hull
+        out.n_kept[rows] = self.reduction.n_kept
+        return out
+
+    def to_arrays(self) -> dict:
+        return {"pose_ids": self.pose_ids.copy(), **self.reduction.to_arrays()}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict) -> "PartReduction":
+        ids = np.asarray(arrays["pose_ids"], dtype=np.int64)
+        red = HullReduction.from_arrays({k: v for k, v in arrays.items() if k != "pose_ids"})
+        if red.n_poses != ids.size:
+            raise ValueError("inconsistent part reduction (pose_ids)")
+        return cls(ids, red)
+
+
+#: The reductions kept per part: every counted force, and those where the fingers do not cross
+#: (MODEL 10: report how much of the metric comes from crossed fingers).
+REDUCTIONS = ("all", "uncrossed")
+
+
+@dataclass
+class ManipulationChunk:
+    """The manipulation data of work items [start, stop): Scenario A's metric per item (cell)
+    and, per part (index into the scene's r values, index into its mu values), the Scenario B
+    reductions of the chunk's geometries."""
+
+    start: int
+    stop: int
+    a_metric: np.ndarray                       # (stop - start,)
+    parts: dict                                # (ri, mui) -> {"all": PartReduction, ...}
+
+    def merge(self, other: "ManipulationChunk") -> "ManipulationChunk":
+        """Two chunks of adjacent items, in either order."""
+        a, b = (self, other) if self.start <= other.start else (other, self)
+        if a.stop != b.start:
+            raise ValueError(f"chunks {a.start}-{a.stop} and {b.start}-{b.stop} are not adjacent")
+        parts = dict(a.parts)
+        for key, reds in b.parts.items():
+            parts[key] = ({k: parts[key][k].merge(reds[k]) for k in REDUCTIONS}
+                          if key in parts else reds)
+        return ManipulationChunk(a.start, b.stop, np.concatenate([a.a_metric, b.a_metric]),
+                                 parts)
+
+    def write(self, group) -> None:
+        """Into an h5py group (a block file's `manipulation` group)."""
+        group.attrs["item_start"] = self.start
+        group.attrs["item_stop"] = self.stop
+        group.create_dataset("a_metric", data=self.a_metric)
+        for (ri, mui), reds in sorted(self.parts.items()):
+            for name in REDUCTIONS:
+                g = group.create_group(f"part_{ri}_{mui}/{name}")
+                for key, value in reds[name].to_arrays().items():
+                    g.create_dataset(key, data=value)
+
+    @classmethod
+    def read(cls, group) -> "ManipulationChunk":
+        parts = {}
+        for key in group:
+            if not key.startswith("part_"):
+                continue
+            _, ri, mui = key.split("_")
+            parts[(int(ri), int(mui))] = {
+                name: PartReduction.from_arrays({k: group[key][name][k][...]
+                                                 for k in group[key][name]})
+                for name in REDUCTIONS}
+        return cls(int(group.attrs["item_start"]), int(group.attrs["item_stop"]),
+                   group["a_metric"][...], parts)

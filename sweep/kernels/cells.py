@@ -10,7 +10,8 @@ through the one map pipeline, `field.map_from_fingers`.
 import numpy as np
 from numba import njit, prange
 
-from .field import N_SUMMARY, finger_field_serial, map_from_fingers
+from .field import N_SUMMARY, counts_for_manipulation, finger_field_serial, map_from_fingers
+from .hull import convex_hull, inscribed_radius
 from .records import (
     EffectBlocks,
     FingerModel,
@@ -72,19 +73,89 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
 
 
 @njit(cache=True)
-def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out):
+def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, manip,
+                   c):
     """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
-    i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1.
+    i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
+    ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
+    receives the cell's manipulation metric data (MODEL 10).
     """
     shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
+    if manip is not None:
+        ncol_max = 0
+        for k in range(ws.shape[0]):
+            ncol_max = max(ncol_max, ncols[k])
+        slots = ws.shape[0] * manip.a_commands.shape[0]
+        a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+        a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+        a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+        manip.n_entries[c] = 0
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-        map_from_fingers(xs, ys, finger, Hand(ws[k], f_left, f_right, h), effects, fingers, outs,
-                         None, stack, out[k], False)  # summaries only
+        hand = Hand(ws[k], f_left, f_right, h)
+        if manip is None:
+            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
+                             False)  # summaries only
+        else:
+            forces = new_force_arrays(ny, xs.shape[0])
+            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, out[k],
+                             False)
+            collect_counted_forces(xs, ys, finger, hand, outs, forces, ncols[k], ncol_max, k,
+                                   manip, c, a_count, a_fx, a_fy)
+    if manip is not None:
+        manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy)
+
+
+@njit(cache=True)
+def collect_counted_forces(xs, ys, finger, hand, outs, forces, ncol, ncol_max, k, manip, c,
+                           a_count, a_fx, a_fy):
+    """The counted poses of one map (MODEL 10): Scenario B entries (command 1/1) into row c of
+    `manip`, Scenario A forces (each command F_left of manip.a_commands, F_right = 2 - F_left)
+    into the cell's per-pose buffers. Forces are the per-unit-tension resultants times S_geo."""
+    capacity = manip.pose.shape[1]
+    n_lattice = 2 * manip.lattice_ncol[c] + 1
+    for j in range(ys.shape[0]):
+        for col in range(xs.shape[0]):
+            if not counts_for_manipulation(j, col, xs[col], ys[j], finger, hand, outs, forces):
+                continue
+            s_geo = forces.geometric_cage_score[j, col]
+            lx = forces.resultant_x[0, j, col]
+            ly = forces.resultant_y[0, j, col]
+            rx = forces.resultant_x[1, j, col]
+            ry = forces.resultant_y[1, j, col]
+            e = manip.n_entries[c]
+            if e < capacity:
+                i = col - ncol  # world column: x = i h
+                manip.pose[c, e] = j * n_lattice + i + manip.lattice_ncol[c]
+                manip.fx[c, e] = (lx + rx) * s_geo
+                manip.fy[c, e] = (ly + ry) * s_geo
+                manip.width[c, e] = k
+                manip.crossed[c, e] = outs.crossed[j, col]
+            manip.n_entries[c] = e + 1
+            a = col - ncol + ncol_max
+            for f_left in manip.a_commands:
+                n = a_count[j, a]
+                a_fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                a_fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                a_count[j, a] = n + 1
+
+
+@njit(cache=True)
+def pose_radius_sum(count, fx, fy):
+    """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10)."""
+    total = 0.0
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            if n < 3:
+                continue
+            hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
+            total += inscribed_radius(hx, hy, hx.shape[0])
+    return total
 
 
 @njit(cache=True)
@@ -95,13 +166,14 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @njit(cache=True, parallel=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, effects, out):
-    """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu."""
+                           theta2_max, solver, effects, out, manip):
+    """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
+    manip: a ManipulationOut with one row per cell, or None."""
     tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
     for c in prange(cells.shape[0]):
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision), ws, steps, ncols[c], nys[c], h,
-                       f_left, f_right, out[c])
+                       f_left, f_right, out[c], manip, c)
 
 
 @njit(cache=True)

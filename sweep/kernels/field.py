@@ -31,7 +31,8 @@ from ..model import (
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
-from .part import finger_polyline, fingers_cross, part_contained, part_in_equilibrium, tip_clearance
+from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
+                   tip_clearance, touches_palm)
 from .records import EffectBlocks, FingerState
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
@@ -123,6 +124,8 @@ def fill_infeasible(j, i, fingers, outs, forces):
             forces.resultant_x[side, j, i] = np.nan
             forces.resultant_y[side, j, i] = np.nan
             forces.determined[side, j, i] = False
+    if forces is not None:
+        forces.geometric_cage_score[j, i] = np.nan
 
 
 @njit(cache=True)
@@ -187,19 +190,43 @@ def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_po
                                      a1r, a2r)
             outs.equilibrium[j, i] = eq
         outs.l_open[j, i] = np.nan
-        if not (eq or every_point):
+        # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
+        wants_geometry = eq or every_point or (forces is not None and c == REACHED)
+        if forces is not None:
+            forces.geometric_cage_score[j, i] = 0.0
+        if not wants_geometry:
             continue
-        left = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, hand.w)
-        right = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, hand.w)
-        inside = part_contained(x, y, left, right)
-        intersect = fingers_cross(left, right)
-        opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
+        inside, intersect, opening = cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand)
         outs.contained[j, i] = inside
         outs.l_open[j, i] = opening
         outs.crossed[j, i] = intersect
-        if eq and inside and opening < 2.0 * r - RANGE_TOL:  # L_open == 2r: not caged
+        caged_geometry = inside and opening < 2.0 * r - RANGE_TOL  # L_open == 2r: not caged
+        if caged_geometry and forces is not None and c == REACHED:
+            forces.geometric_cage_score[j, i] = 1.0 - opening / (2.0 * r)
+        if eq and caged_geometry:
             outs.caged[j, i] = True
             outs.caging_score[j, i] = 1.0 - opening / (2.0 * r)
+
+
+@njit(cache=True)
+def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
+    """(contained, fingers cross, L_open) of the part at (x, y) between the fingers (MODEL 8)."""
+    left = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, hand.w)
+    right = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, hand.w)
+    inside = part_contained(x, y, left, right)
+    intersect = fingers_cross(left, right)
+    opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
+    return inside, intersect, opening
+
+
+@njit(cache=True)
+def counts_for_manipulation(j, i, x, y, finger, hand, outs, forces):
+    """MODEL 10: a pose counts iff reached, not touching the palm, not in equilibrium, S_geo > 0,
+    and both fingers' forces determined by statics (model-notes D9)."""
+    return (outs.point_class[j, i] == REACHED and not outs.equilibrium[j, i]
+            and not touches_palm(x, y, hand.w, finger.r)
+            and forces.geometric_cage_score[j, i] > 0.0
+            and forces.determined[0, j, i] and forces.determined[1, j, i])
 
 
 # ---------------------------------------------------------------------------------------------

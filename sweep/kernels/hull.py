@@ -541,3 +541,52 @@ def reduction_parameter_ranges(pts, first, n_hull, n_kept, values, ranges, n_blo
                     lowest = min(lowest, group_min[i, c])
                     highest = max(highest, group_max[i, c])
                 ranges[pose, c] = highest - lowest
+
+
+@njit(cache=True, parallel=True)
+def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, fx, fy, geometry, params, done,
+                          status, n_blocks):
+    """Add a batch of forces sorted by pose: pose p's entries are seg_start[p] .. seg_start[p+1]-1
+    (fx, fy, their geometry index and its 5 parameters (w, l1, l2, r1, r2) per entry).
+
+    done[p] counts the entries of pose p already added; on overflow the pose keeps what it has,
+    status[p] = STATUS_OVERFLOW, and a call with grown arrays resumes at done[p]. Non-finite
+    forces are skipped (STATUS_NONFINITE). Poses are independent: blocks of poses in parallel."""
+    n_poses, cap = pts.shape[0], pts.shape[1]
+    n_blocks = _blocks(n_poses, n_blocks)
+    for b in prange(n_blocks):
+        lo = b * n_poses // n_blocks
+        hi = (b + 1) * n_poses // n_blocks
+        m = cap + 1
+        cand = np.empty((m, N_COLS))
+        cand_first = np.empty(m, dtype=np.int64)
+        uniq = np.empty((m, N_COLS))
+        uniq_first = np.empty(m, dtype=np.int64)
+        order = np.empty(m, dtype=np.int64)
+        chain = np.empty(2 * m + 1, dtype=np.int64)
+        is_vertex = np.empty(m, dtype=np.bool_)
+        expansion = np.empty(16)
+        point = np.empty((1, N_COLS))
+        point_first = np.empty(1, dtype=np.int64)
+        for pose in range(lo, hi):
+            status[pose] = STATUS_OK
+            for e in range(seg_start[pose] + done[pose], seg_start[pose + 1]):
+                if not (math.isfinite(fx[e]) and math.isfinite(fy[e])):
+                    status[pose] = STATUS_NONFINITE
+                    done[pose] += 1
+                    continue
+                point[0, X] = fx[e] + 0.0
+                point[0, Y] = fy[e] + 0.0
+                for c in range(N_PARAMS):
+                    point[0, PMIN + c] = params[e, c]
+                    point[0, PMAX + c] = params[e, c]
+                point_first[0] = geometry[e]
+                nh, nk = _add_point(pts[pose], first[pose], n_hull[pose], n_kept[pose], point,
+                                    point_first, cand, cand_first, uniq, uniq_first, order, chain,
+                                    is_vertex, expansion)
+                if nh < 0:
+                    status[pose] = STATUS_OVERFLOW
+                    break
+                n_hull[pose] = nh
+                n_kept[pose] = nk
+                done[pose] += 1

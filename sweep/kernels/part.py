@@ -69,6 +69,12 @@ def origin_in_cone_hull(angles, n):
 
 
 @njit(cache=True)
+def touches_palm(x, y, w, r):
+    """The part rests on the palm (MODEL 7): |y - r| <= PALM_TOL and |x| <= w/2 + PALM_TOL."""
+    return abs(y - r) <= PALM_TOL and abs(x) <= 0.5 * w + PALM_TOL
+
+
+@njit(cache=True)
 def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r):
     """Cone-hull equilibrium of the part with both fingers' tangent contacts and the palm.
 
@@ -77,7 +83,7 @@ def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r
     cone = math.atan(mu)
     n = finger_contact_normals(angles, 0, 0, mode_l, t1_l, t2_l, cone)
     n = finger_contact_normals(angles, n, 1, mode_r, t1_r, t2_r, cone)
-    if abs(y - r) <= PALM_TOL and abs(x) <= 0.5 * w + PALM_TOL:
+    if touches_palm(x, y, w, r):
         n = add_contact(angles, n, 0.5 * math.pi, cone)
     if n < 4:
         return False

@@ -131,6 +131,27 @@ class ForceArrays(NamedTuple):
     resultant_x: np.ndarray
     resultant_y: np.ndarray
     determined: np.ndarray    # bool
+    geometric_cage_score: np.ndarray  # (y, x): S_geo of MODEL 10 at reached points, else 0
+
+
+class ManipulationOut(NamedTuple):
+    """Per-cell outputs of the manipulation metric (MODEL 10), one row per cell of a kernel call.
+
+    Scenario B entries: every counted (pose, width) of the cell: the pose's flat index on the
+    part's lattice, the force (f_L + f_R) S_geo of the command F_left = F_right = 1, the width's
+    index, whether the fingers cross there; n_entries[c] may exceed the capacity (then the cell
+    must be redone with more). Scenario A: a_metric[c] = sum over poses of the inscribed radius of
+    the hull of the cell's forces over its widths and the commands F_left + F_right = 2."""
+
+    pose: np.ndarray          # (n_cells, capacity) int64
+    fx: np.ndarray            # (n_cells, capacity)
+    fy: np.ndarray
+    width: np.ndarray         # (n_cells, capacity) int64
+    crossed: np.ndarray       # (n_cells, capacity) bool
+    n_entries: np.ndarray     # (n_cells,) int64
+    a_metric: np.ndarray      # (n_cells,)
+    lattice_ncol: np.ndarray  # (n_cells,) int64: the part lattice's columns are -N .. N
+    a_commands: np.ndarray    # (n_commands,) F_left of Scenario A (F_right = 2 - F_left)
 
 
 @njit(cache=True)
@@ -154,4 +175,4 @@ def new_outcome_arrays(ny, nx):
 def new_force_arrays(ny, nx):
     shape = (2, ny, nx)
     return ForceArrays(np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape),
-                       np.empty(shape), np.empty(shape, dtype=np.bool_))
+                       np.empty(shape), np.empty(shape, dtype=np.bool_), np.zeros((ny, nx)))

@@ -1,0 +1,103 @@
+"""The manipulation metric computed inside the sweep (MODEL 10) against the slow, independent
+reference of tests/naive_manipulation.py (naive finger configurations, LP statics, Qhull)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, naive_metric,
+                                world_lattice)
+from sweep.batch import manipulation_cells, summarize_cells
+from sweep.model import Accuracy, Command, Effects, Limits
+
+H = 0.2
+PART = (0.4, 0.4)
+# (w, l1, l2, r1, r2): three geometries of the paper's grid (the reference's own test set)
+GEOMETRIES = [(0.0, 1.4, 0.8, 0.12, 0.10), (1.2, 0.4, 0.8, 0.16, 0.14), (0.8, 0.4, 1.2, 0.12, 0.14)]
+
+
+def kernel_scenario_b(geometries, part, h):
+    """Scenario B through manipulation_cells: one cell per geometry, reductions merged."""
+    n_col, n_row = world_lattice(geometries, part[0], h)[1]
+    merged = None
+    a_metrics = []
+    for g, (w, l1, l2, r1, r2) in enumerate(geometries):
+        cell = np.array([[l1, l2, r1, r2, part[0], part[1]]])
+        out, chunk = manipulation_cells(cell, np.array([w]), h, Limits(), Accuracy(), Effects(),
+                                        np.array([g]), np.array([[0, 0]]), np.array([n_col]))
+        ref = summarize_cells(cell, np.array([w]), Command(), h, Limits(), Accuracy())
+        np.testing.assert_array_equal(out, ref)  # the summaries do not change
+        a_metrics.append(chunk.a_metric[0])
+        reds = chunk.parts.get((0, 0))
+        if reds is None:
+            continue
+        merged = reds if merged is None else {k: merged[k].merge(reds[k]) for k in merged}
+    values = np.zeros((n_row + 1, 2 * n_col + 1))
+    red = merged["all"]
+    values.ravel()[red.pose_ids] = red.reduction.values()
+    return values, merged, a_metrics
+
+
+@pytest.fixture(scope="module")
+def scenario_b():
+    return (kernel_scenario_b(GEOMETRIES, PART, H),
+            naive_metric(GEOMETRIES, PART, H, SCENARIO_B_COMMANDS))
+
+
+def test_scenario_b_pose_values_match_the_reference(scenario_b):
+    (values, _, _), ref = scenario_b
+    assert ref["total"] > 0
+    np.testing.assert_allclose(values, ref["values"], rtol=1e-9, atol=1e-12)
+    assert np.array_equal(values > 0, ref["values"] > 0)
+
+
+def test_scenario_b_parameter_usage_matches_the_reference(scenario_b):
+    (_, merged, _), ref = scenario_b
+    usage = merged["all"].reduction.parameter_usage()
+    np.testing.assert_allclose(usage, ref["usage"], rtol=1e-9, atol=1e-12, equal_nan=True)
+
+
+def test_scenario_b_without_crossed_fingers_never_exceeds_the_whole(scenario_b):
+    (values, merged, _), _ = scenario_b
+    uncrossed = merged["uncrossed"].reduction.values()
+    whole = merged["all"]
+    rows = np.searchsorted(whole.pose_ids, merged["uncrossed"].pose_ids)
+    assert (uncrossed <= whole.reduction.values()[rows] + 1e-15).all()  # a sub-hull is inside
+    assert uncrossed.sum() <= values.sum()
+
+
+@pytest.mark.parametrize("candidate", [(1.4, 0.8, 0.12, 0.10), (0.4, 1.2, 0.12, 0.14)])
+def test_scenario_a_metric_of_a_candidate_matches_the_reference(candidate):
+    """Scenario A: (l1, l2, r1, r2) fixed, w over its values, the 9 commands F_left + F_right = 2
+    in the reference; the kernel uses the two extreme commands (MODEL 10: the same hull)."""
+    widths = (0.0, 0.4, 0.8, 1.2)
+    geometries = [(w, *candidate) for w in widths]
+    ref = naive_metric(geometries, PART, H, SCENARIO_A_COMMANDS)
+    n_col = world_lattice(geometries, PART[0], H)[1][0]
+    cell = np.array([[*candidate, *PART]])
+    _, chunk = manipulation_cells(cell, np.array(widths), H, Limits(), Accuracy(), Effects(),
+                                  np.array([0]), np.array([[0, 0]]), np.array([n_col]))
+    assert chunk.a_metric[0] == pytest.approx(ref["total"], rel=1e-9, abs=1e-12)
+
+
+def test_chunks_merge_to_the_whole_run():
+    """Reductions of geometries split into chunks merge to exactly the one-pass values."""
+    cells = np.array([[1.4, 0.8, 0.12, 0.10, 0.4, 0.4], [1.4, 0.8, 0.16, 0.14, 0.4, 0.4],
+                      [1.2, 1.2, 0.08, 0.06, 0.4, 0.4]])
+    widths = np.array([0.0, 0.4, 0.8])
+    n_col = 20
+    args = (widths, H, Limits(), Accuracy(), Effects())
+    _, whole = manipulation_cells(cells, *args, np.arange(3), np.zeros((3, 2), int),
+                                  np.full(3, n_col))
+    _, first = manipulation_cells(cells[:1], *args, np.arange(1), np.zeros((1, 2), int),
+                                  np.full(1, n_col))
+    _, rest = manipulation_cells(cells[1:], *args, np.arange(1, 3), np.zeros((2, 2), int),
+                                 np.full(2, n_col))
+    merged = rest.merge(first)
+    np.testing.assert_array_equal(merged.a_metric, whole.a_metric)
+    for name in ("all", "uncrossed"):
+        a, b = merged.parts[(0, 0)][name], whole.parts[(0, 0)][name]
+        np.testing.assert_array_equal(a.pose_ids, b.pose_ids)
+        np.testing.assert_array_equal(a.reduction.values(), b.reduction.values())
+        np.testing.assert_array_equal(a.reduction.parameter_usage(),
+                                      b.reduction.parameter_usage())
