@@ -105,6 +105,17 @@ SCENARIO_A_EXTREMES = (SCENARIO_A_COMMANDS[0], SCENARIO_A_COMMANDS[-1])
 ENTRY_CAPACITY = 4096  # counted (pose, width) pairs per cell before the cell is redone bigger
 
 
+def _splice(whole: np.ndarray, redone: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Rows `rows` of `whole` replaced by `redone` (widened along axis 1 when it is wider)."""
+    if whole.ndim == 2 and redone.shape[1] > whole.shape[1]:
+        wide = np.zeros((whole.shape[0], redone.shape[1]), dtype=whole.dtype)
+        wide[:, :whole.shape[1]] = whole
+        whole = wide
+    whole = whole.copy()
+    whole[rows, ...] = redone if whole.ndim == 1 else redone[:, :whole.shape[1]]
+    return whole
+
+
 def part_lattice_columns(max_w: float, max_l1: float, max_l2: float, r: float, h: float) -> int:
     """N of a part's shared pose lattice x = i h, |i| <= N (MODEL 10: the world grid of the
     largest reach, MODEL 8), for every design of a sweep."""
@@ -114,8 +125,9 @@ def part_lattice_columns(max_w: float, max_l1: float, max_l2: float, r: float, h
 def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: Limits,
                        accuracy: Accuracy, effects: Effects, items: np.ndarray,
                        part_keys: np.ndarray, lattice_ncol: np.ndarray,
-                       capacity: int = ENTRY_CAPACITY) -> tuple[np.ndarray, ManipulationChunk]:
-    """Summaries (as `summarize_cells` with the command 1/1) and the manipulation data of cells
+                       capacity: int = ENTRY_CAPACITY,
+                       command: Command = Command()) -> tuple[np.ndarray, ManipulationChunk]:
+    """Summaries (as `summarize_cells` under `command`) and the manipulation data of cells
     whose items are `items` (consecutive work-item indices): Scenario A's metric per cell and
     Scenario B's reductions per part (`part_keys[c]` = (r index, mu index) of cell c, whose
     lattice has columns -lattice_ncol[c] .. lattice_ncol[c]). Geometry index of a map: its item
@@ -137,20 +149,29 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
               for c in cells]
     ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
     nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
-    while True:
-        out = np.zeros((n, widths.size, len(SUMMARY_FIELDS)))
+    lattice_ncol = np.ascontiguousarray(lattice_ncol, dtype=np.int64)
+
+    def run(rows, capacity):
+        out = np.zeros((rows.size, widths.size, len(SUMMARY_FIELDS)))
+        m = rows.size
         manip = ManipulationOut(
-            np.zeros((n, capacity), dtype=np.int64), np.zeros((n, capacity)),
-            np.zeros((n, capacity)), np.zeros((n, capacity), dtype=np.int64),
-            np.zeros((n, capacity), dtype=np.bool_), np.zeros(n, dtype=np.int64), np.zeros(n),
-            np.ascontiguousarray(lattice_ncol, dtype=np.int64),
-            np.array(SCENARIO_A_EXTREMES, dtype=np.float64))
-        summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
-                               1.0, 1.0, limits.theta2_min, limits.theta2_max, solver, blocks,
-                               out, manip)
-        if manip.n_entries.max(initial=0) <= capacity:
-            break
-        capacity = int(2 ** np.ceil(np.log2(manip.n_entries.max())))
+            np.zeros((m, capacity), dtype=np.int64), np.zeros((m, capacity)),
+            np.zeros((m, capacity)), np.zeros((m, capacity), dtype=np.int64),
+            np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
+            lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64))
+        summarize_cells_shared(np.ascontiguousarray(cells[rows]), widths,
+                               np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
+                               command.f_left, command.f_right, limits.theta2_min,
+                               limits.theta2_max, solver, blocks, out, manip)
+        return out, manip
+
+    out, manip = run(np.arange(n), capacity)
+    over = np.flatnonzero(manip.n_entries > capacity)
+    if over.size:  # redo only the cells with more counted poses than the buffer holds
+        out2, manip2 = run(over, int(manip.n_entries.max()))
+        out[over] = out2
+        manip = ManipulationOut(*[_splice(a, b, over) for a, b in zip(manip[:7], manip2[:7])],
+                                manip.lattice_ncol, manip.a_commands)
     parts: dict = {}
     keys = [tuple(int(v) for v in k) for k in np.asarray(part_keys).reshape(-1, 2)]
     for key in sorted(set(keys)):

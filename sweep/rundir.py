@@ -27,8 +27,8 @@ from .chunks import Range, chunk_ranges
 from .outputs import (OutputLock, claim_output, os_errors_named, remove_stale_temporaries,
                       write_json_atomic)
 from .scene import Scene
-from .store import (KIND_SHARD, Block, CorruptFile, StoreError, assemble, read_block,
-                    first_line, scene_from_frozen, write_store)
+from .store import (KIND_SHARD, Block, CorruptFile, StoreError, assemble,
+                    assemble_manipulation, first_line, read_block, scene_from_frozen, write_store)
 
 
 MANIFEST = "sweep-manifest.json"
@@ -288,7 +288,8 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
             compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
             created_by=f"sweep merge of {status.n_chunks} shards",
-            extra_attrs=dict(saved_maps=saved, saved_maps_dir=str(maps_dir)) if saved else None)
+            extra_attrs=dict(saved_maps=saved, saved_maps_dir=str(maps_dir)) if saved else None,
+            manipulation=assemble_manipulation(scene, blocks))
     return scene, status
 
 

@@ -28,8 +28,8 @@ from .outputs import claim_output, remove_stale_temporaries
 from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_path,
                      prepare_parts_dir)
 from .scene import Scene
-from .store import (KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, read_block,
-                    read_store, write_block, write_store)
+from .store import (KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble,
+                    assemble_manipulation, read_block, read_store, write_block, write_store)
 
 #: Environment variables that may carry the chunk index of an array job, with the index of their
 #: first task. SLURM and PBS arrays are written 0..N-1 (as `sweep slurm` does); SGE (`-t 1-N`) and
@@ -134,6 +134,17 @@ def compute_items(scene: Scene, start: int, stop: int) -> np.ndarray:
     return out
 
 
+def compute_items_with_manipulation(scene: Scene, start: int, stop: int):
+    """Summaries and manipulation data (MODEL 10) of items [start, stop): the scene has one
+    command (scene validation), so one kernel call."""
+    cells, _ = scene.cells(start, stop)
+    r_index = scene.part_keys(start, stop)[:, 0]
+    return batch.manipulation_cells(
+        cells, scene.widths, scene.h, scene.limits, scene.accuracy, scene.effects,
+        np.arange(start, stop, dtype=np.int64), scene.part_keys(start, stop),
+        scene.lattice_columns()[r_index], command=scene.commands[0])
+
+
 def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bool = True,
               desc: str | None = None) -> tuple[list, int, float]:
     """Compute every missing sub-chunk of items [start, stop) into `parts_dir`.
@@ -151,10 +162,15 @@ def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bo
     try:
         for a, b in todo:
             t = time.perf_counter()
-            data = compute_items(scene, a, b)
+            manipulation = None
+            if scene.manipulation:
+                data, manipulation = compute_items_with_manipulation(scene, a, b)
+            else:
+                data = compute_items(scene, a, b)
             seconds = time.perf_counter() - t
             path = part_path(parts_dir, a, b)
-            write_block(path, scene, a, b, data, KIND_PART, compute_seconds=seconds)
+            write_block(path, scene, a, b, data, KIND_PART, compute_seconds=seconds,
+                        manipulation=manipulation)
             blocks.append(read_block(path, with_data=False))
             computed += (b - a) * n_w
             bar.update((b - a) * n_w)
@@ -214,7 +230,8 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
         write_store(out, scene, full, timings=dict(
             wall_seconds=wall, compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
-            created_by="sweep run", extra_attrs=extra)
+            created_by="sweep run", extra_attrs=extra,
+            manipulation=assemble_manipulation(scene, blocks))
         if not keep_parts:
             shutil.rmtree(paths.parts, ignore_errors=True)
     return RunResult(out, scene.n_maps, computed, wall, compute)
@@ -262,7 +279,8 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
         compute = sum(b.compute_seconds for b in blocks)
         data = assemble(scene, blocks, start, stop)
         write_block(shard, scene, start, stop, data, KIND_SHARD, compute_seconds=compute,
-                    chunk=chunk, n_chunks=n_chunks)
+                    chunk=chunk, n_chunks=n_chunks,
+                    manipulation=assemble_manipulation(scene, blocks, start, stop))
         shutil.rmtree(parts, ignore_errors=True)
         with contextlib.suppress(OSError):
             parts.parent.rmdir()   # only if no other shard is in progress

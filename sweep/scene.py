@@ -34,7 +34,7 @@ import numpy as np
 import yaml
 
 from . import __version__
-from .batch import CELL_COLUMNS
+from .batch import CELL_COLUMNS, part_lattice_columns
 from .maps import BYTES_PER_POINT, grid_index_bounds
 from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
                     Command, Design, Effects, Grid, Limits, ModelInputError, Part,
@@ -61,7 +61,7 @@ LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
 ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
 TRAJECTORY_METHODS = ("discrete",)
 EFFECT_KEYS = ("friction", "tip_contact", "joint_springs", "finger_collision")
-OUTPUT_KEYS = ("save_maps",)
+OUTPUT_KEYS = ("save_maps", "manipulation", "scenario_a_top_k")
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)
 RUN_KEYS = ("sub_chunk_cells",)
 
@@ -102,6 +102,8 @@ class Scene:
     effects: Effects
     save_maps: tuple = ()   # of dicts with STORE_DIMS keys (+ "command" index)
     sub_chunk_cells: int | None = None
+    manipulation: bool = False   # outputs.manipulation: Scenarios A and B of MODEL 10
+    scenario_a_top_k: int = 10   # outputs.scenario_a_top_k: Scenario A's candidates per part
     source: dict = field(default_factory=dict, compare=False)  # the config as written
     path: str | None = field(default=None, compare=False)      # the file it was read from
 
@@ -191,6 +193,8 @@ class Scene:
                           root_tol=self.accuracy.root_tol, trajectory=self.accuracy.trajectory),
             effects={k: getattr(self.effects, k) for k in EFFECT_KEYS},
             item_order=list(ITEM_ORDER),
+            # only when on, so that the hashes of configs without it stay what they were
+            **({"outputs": {"manipulation": True}} if self.manipulation else {}),
         )
 
     @property
@@ -204,7 +208,24 @@ class Scene:
         """What a run directory / output file records about the config (habit 8)."""
         return dict(name=self.name, config_hash=self.config_hash, sweep_version=__version__,
                     resolved=self.resolved(), source=self.source,
-                    save_maps=list(self.save_maps), sub_chunk_cells=self.sub_chunk_cells)
+                    save_maps=list(self.save_maps), sub_chunk_cells=self.sub_chunk_cells,
+                    **({"scenario_a_top_k": self.scenario_a_top_k} if self.manipulation else {}))
+
+    def part_keys(self, start: int, stop: int) -> np.ndarray:
+        """(r index, mu index) of items [start, stop): the part each item's maps belong to."""
+        ix = self.item_indices(start, stop)
+        return np.stack([ix["r"], ix["mu"]], axis=1).astype(np.int64)
+
+    def lattice_columns(self) -> np.ndarray:
+        """Per r value, N of the part's shared pose lattice x = i h, |i| <= N (MODEL 10)."""
+        return np.array([part_lattice_columns(max(self.values["w"]), max(self.values["l1"]),
+                                              max(self.values["l2"]), r, self.h)
+                         for r in self.values["r"]], dtype=np.int64)
+
+    def lattice_rows(self) -> int:
+        """M of every part's lattice y = r + j h, 0 <= j <= M (the largest reach, MODEL 8)."""
+        return int(math.floor((max(self.values["l1"]) + max(self.values["l2"])) / self.h
+                              + 1e-9))
 
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
@@ -362,6 +383,21 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 
     outputs = _mapping(raw.get("outputs", {}) or {}, "outputs", OUTPUT_KEYS)
     save_maps = _save_maps(outputs.get("save_maps", []) or [], values, len(commands))
+    manipulation = outputs.get("manipulation", False)
+    if not isinstance(manipulation, bool):
+        raise SceneError(f"outputs.manipulation: must be true or false, got {manipulation!r}")
+    top_k = outputs.get("scenario_a_top_k", 10)
+    if isinstance(top_k, bool) or not isinstance(top_k, int) or top_k < 1:
+        raise SceneError(f"outputs.scenario_a_top_k: must be a whole number >= 1, got {top_k!r}")
+    if manipulation:
+        if len(commands) != 1:
+            raise SceneError("outputs.manipulation: needs exactly one command (the caging "
+                             "sweep's); Scenarios A and B use their own (MODEL 10)")
+        for w in values["w"]:
+            s = w / (2.0 * h)
+            if abs(s - round(s)) > 1e-9:
+                raise SceneError(f"outputs.manipulation: every palm width must be a multiple of "
+                                 f"2h = {2 * h:g} (poses are shared lattice points); w = {w:g}")
 
     run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
     sub = run.get("sub_chunk_cells")
@@ -370,7 +406,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 
     return Scene(name=name, values=values, commands=commands, h=h, bounds=bounds, limits=limits,
                  accuracy=accuracy, effects=effects, save_maps=save_maps, sub_chunk_cells=sub,
-                 source=_jsonable(raw))
+                 manipulation=manipulation, scenario_a_top_k=top_k, source=_jsonable(raw))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -26,9 +26,11 @@ import h5py
 import numpy as np
 
 from . import __version__
+from .batch import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from .chunks import Range, exact_cover
 from .h5 import (atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
+from .manipulation import PARAMETER_NAMES, ManipulationChunk
 from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
 from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS
 
@@ -77,6 +79,7 @@ class Block:
     chunk: int | None = None
     n_chunks: int | None = None
     data: np.ndarray | None = field(default=None, repr=False)
+    has_manipulation: bool = False
 
     @property
     def range(self) -> Range:
@@ -85,8 +88,10 @@ class Block:
 
 def write_block(path: Path, scene: Scene, start: int, stop: int, data: np.ndarray, kind: str,
                 compute_seconds: float, chunk: int | None = None,
-                n_chunks: int | None = None) -> None:
-    """Summaries of items [start, stop), float64 (stop - start, n_w, n_fields), atomically."""
+                n_chunks: int | None = None,
+                manipulation: ManipulationChunk | None = None) -> None:
+    """Summaries of items [start, stop), float64 (stop - start, n_w, n_fields), atomically; with
+    the manipulation data of the same items in a `manipulation` group when the scene has it."""
     data = np.asarray(data, dtype=np.float64)
     expect = (stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS))
     if data.shape != expect:
@@ -103,6 +108,11 @@ def write_block(path: Path, scene: Scene, start: int, stop: int, data: np.ndarra
         for axis, dim in enumerate(("item", "w", "field")):
             ds.dims[axis].attach_scale(f[dim])
         ds.attrs["long_name"] = "per-map summaries, one row per work item and width"
+        if manipulation is not None:
+            if (manipulation.start, manipulation.stop) != (start, stop):
+                raise ValueError(f"block {start}-{stop}: manipulation data of items "
+                                 f"{manipulation.start}-{manipulation.stop}")
+            manipulation.write(f.create_group("manipulation"))
         attrs = dict(sweep_file_kind=kind, item_start=start, item_stop=stop,
                      n_items_total=scene.n_items, item_order=list(ITEM_ORDER),
                      config_hash=scene.config_hash, sweep_version=__version__,
@@ -131,7 +141,8 @@ def read_block(path: Path, with_data: bool = True) -> Block:
                           config_hash=_str(a["config_hash"]), version=_str(a["sweep_version"]),
                           frozen=frozen, compute_seconds=float(a["compute_seconds"]),
                           chunk=int(a["chunk"]) if "chunk" in a else None,
-                          n_chunks=int(a["n_chunks"]) if "n_chunks" in a else None)
+                          n_chunks=int(a["n_chunks"]) if "n_chunks" in a else None,
+                          has_manipulation="manipulation" in f)
     except CorruptFile:
         raise
     except (OSError, KeyError, ValueError, TypeError, json.JSONDecodeError) as exc:
@@ -170,8 +181,10 @@ def store_arrays(scene: Scene, full: np.ndarray) -> dict[str, np.ndarray]:
 
 
 def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, created_by: str,
-                extra_attrs: dict | None = None) -> None:
-    """The results store (see the module docstring), written atomically."""
+                extra_attrs: dict | None = None,
+                manipulation: ManipulationChunk | None = None) -> None:
+    """The results store (see the module docstring), written atomically; with the manipulation
+    metric's variables when `manipulation` (the merged data of every item) is given."""
     arrays = store_arrays(scene, full)
     dims = scene.store_dims
     with atomic_file(path) as f:
@@ -188,6 +201,8 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
                                                   f"{k[2:]} finger", units="force (model units)"))
         for name in SUMMARY_FIELDS:
             write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
+        if manipulation is not None:
+            _write_manipulation(f, scene, manipulation)
         attrs = dict(
             title=f"energy-map sweep summaries: {scene.name}",
             sweep_file_kind=KIND_STORE, name=scene.name,
@@ -205,6 +220,13 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
         )
         if len(scene.commands) == 1:
             attrs.update(f_left=scene.commands[0].f_left, f_right=scene.commands[0].f_right)
+        if manipulation is not None:
+            attrs.update(manipulation_scenario_a_commands_f_left=list(SCENARIO_A_COMMANDS),
+                         manipulation_scenario_a_computed_f_left=list(SCENARIO_A_EXTREMES),
+                         manipulation_scenario_b_command=[1.0, 1.0],
+                         manipulation_scenario_a_top_k=scene.scenario_a_top_k,
+                         manipulation_note="forces per unit tendon tension times the pose's "
+                         "geometric cage score S_geo; values are unitless")
         attrs.update(extra_attrs or {})
         set_root_attrs(f, attrs)
 
@@ -252,6 +274,113 @@ def scene_from_frozen(frozen: dict) -> Scene:
                          f"({scene.config_hash[:12]} != {frozen['config_hash'][:12]}); "
                          "written by another sweep version?")
     return scene
+
+
+def read_manipulation(path: Path) -> ManipulationChunk:
+    """The manipulation data of a block file (CorruptFile if missing or unreadable)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return ManipulationChunk.read(f["manipulation"])
+    except (OSError, KeyError, ValueError) as exc:
+        raise CorruptFile(f"{Path(path).name}: no readable manipulation data "
+                          f"({first_line(exc)})") from None
+
+
+def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
+                          stop: int | None = None) -> ManipulationChunk | None:
+    """The manipulation data of items [start, stop), merged from blocks that tile it; None when
+    the scene has no manipulation output."""
+    if not scene.manipulation:
+        return None
+    stop = scene.n_items if stop is None else stop
+    pick = exact_cover(start, stop, [b.range for b in blocks])
+    if pick is None:
+        raise StoreError(f"blocks {sorted(b.range for b in blocks)} do not cover items "
+                         f"{start}-{stop}")
+    merged = None
+    for i in sorted(pick, key=lambda k: blocks[k].start):
+        chunk = read_manipulation(blocks[i].path)
+        merged = chunk if merged is None else merged.merge(chunk)
+    return merged
+
+
+MANIPULATION_ATTRS = {
+    "manipulation_a": dict(
+        long_name="Scenario A manipulation metric of the candidate (l1, l2, r1, r2) for the part "
+                  "(r, mu): sum over poses of the largest origin-centred circle inside the hull "
+                  "of its forces over every palm width and the commands F_left + F_right = 2 "
+                  "(MODEL 10); grows as 1/h^2", units="force (per unit tension, unitless)"),
+    "manipulation_a_area": dict(long_name="manipulation_a * h^2 (resolution-independent)",
+                                units="force x length^2 (unitless)"),
+    "manipulation_b": dict(
+        long_name="Scenario B manipulation metric of the part: sum over poses of the largest "
+                  "origin-centred circle inside the hull of the forces of every geometry of the "
+                  "sweep at F_left = F_right = 1 (MODEL 10)", units="force (unitless)"),
+    "manipulation_b_area": dict(long_name="manipulation_b * h^2", units="force x length^2"),
+    "manipulation_b_uncrossed": dict(
+        long_name="manipulation_b counting only forces of poses where the fingers do not cross "
+                  "(the rest comes from crossed fingers, MODEL 10)", units="force (unitless)"),
+    "manipulation_b_poses": dict(long_name="poses with a positive Scenario B value", units="1"),
+    "parameter_usage": dict(
+        long_name="Scenario B parameter usage: per parameter, the range among the geometries "
+                  "whose forces are hull vertices over its search range, averaged over the poses "
+                  "with a positive value (MODEL 10); NaN if none", units="1"),
+    "manipulation_b_pose_value": dict(
+        long_name="Scenario B value of each pose x = pose_column h, y = r + pose_row h (0 where "
+                  "no hull surrounds the origin; outside a part's lattice too)",
+        units="force (unitless)"),
+}
+
+
+def manipulation_arrays(scene: Scene, chunk: ManipulationChunk) -> dict[str, np.ndarray]:
+    """The store's manipulation variables from the merged data of every item."""
+    shape = scene.item_shape
+    axes = list(ITEM_ORDER)
+    a = chunk.a_metric.reshape(shape)[:, :, :, 0]          # one command (scene validation)
+    axes.remove("command")
+    target = ("l1", "l2", "r1", "r2", "r", "mu")
+    a = np.ascontiguousarray(a.transpose([axes.index(d) for d in target]))
+    n_r, n_mu = len(scene.values["r"]), len(scene.values["mu"])
+    n_cols = scene.lattice_columns()
+    n_max, m = int(n_cols.max()), scene.lattice_rows()
+    pose_value = np.zeros((n_r, n_mu, m + 1, 2 * n_max + 1))
+    b = np.zeros((n_r, n_mu))
+    b_uncrossed = np.zeros((n_r, n_mu))
+    n_positive = np.zeros((n_r, n_mu), dtype=np.int32)
+    usage = np.full((n_r, n_mu, len(PARAMETER_NAMES)), np.nan)
+    search = np.array([max(scene.values[p]) - min(scene.values[p]) for p in PARAMETER_NAMES])
+    for (ri, mui), reds in chunk.parts.items():
+        red = reds["all"]
+        values = red.reduction.values()
+        width = 2 * int(n_cols[ri]) + 1
+        rows, cols = np.divmod(red.pose_ids, width)
+        pose_value[ri, mui, rows, cols - int(n_cols[ri]) + n_max] = values
+        b[ri, mui] = values.sum()
+        b_uncrossed[ri, mui] = reds["uncrossed"].reduction.values().sum()
+        n_positive[ri, mui] = int((values > 0).sum())
+        usage[ri, mui] = red.reduction.parameter_usage(search)
+    h2 = scene.h * scene.h
+    return dict(manipulation_a=a, manipulation_a_area=a * h2, manipulation_b=b,
+                manipulation_b_area=b * h2, manipulation_b_uncrossed=b_uncrossed,
+                manipulation_b_poses=n_positive, parameter_usage=usage,
+                manipulation_b_pose_value=pose_value)
+
+
+def _write_manipulation(f, scene: Scene, chunk: ManipulationChunk) -> None:
+    arrays = manipulation_arrays(scene, chunk)
+    n_max = int(scene.lattice_columns().max())
+    write_coordinate(f, "parameter", np.array(PARAMETER_NAMES, dtype=object),
+                     dict(long_name="design parameter of the parameter usage"))
+    write_coordinate(f, "pose_row", np.arange(scene.lattice_rows() + 1, dtype=np.int32),
+                     dict(long_name="pose row j: part centre y = r + j h", units="1"))
+    write_coordinate(f, "pose_column", np.arange(-n_max, n_max + 1, dtype=np.int32),
+                     dict(long_name="pose column i: part centre x = i h", units="1"))
+    dims = {"manipulation_a": ("l1", "l2", "r1", "r2", "r", "mu"),
+            "manipulation_a_area": ("l1", "l2", "r1", "r2", "r", "mu"),
+            "parameter_usage": ("r", "mu", "parameter"),
+            "manipulation_b_pose_value": ("r", "mu", "pose_row", "pose_column")}
+    for name, value in arrays.items():
+        write_variable(f, name, value, dims.get(name, ("r", "mu")), MANIPULATION_ATTRS[name])
 
 
 def assemble(scene: Scene, blocks: Sequence[Block], start: int = 0,

@@ -7,10 +7,14 @@ finger offset -i - s (model-notes D1). The offsets are the same floating-point n
 direct computation uses, so the maps are bitwise identical to `compute_map`'s. Each map then goes
 through the one map pipeline, `field.map_from_fingers`.
 """
+import math
+
 import numpy as np
 from numba import njit, prange
 
-from .field import N_SUMMARY, counts_for_manipulation, finger_field_serial, map_from_fingers
+from ..model import REACHED
+from .field import N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, map_from_fingers
+from .part import fingers_cross, part_contained, tip_clearance, touches_palm
 from .hull import convex_hull, inscribed_radius
 from .records import (
     EffectBlocks,
@@ -92,49 +96,100 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
         a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
         a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
         manip.n_entries[c] = 0
+        links, statics = shared_finger_links_and_statics(shared, finger)
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
         hand = Hand(ws[k], f_left, f_right, h)
-        if manip is None:
-            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
-                             False)  # summaries only
-        else:
-            forces = new_force_arrays(ny, xs.shape[0])
-            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, out[k],
-                             False)
-            collect_counted_forces(xs, ys, finger, hand, outs, forces, ncols[k], ncol_max, k,
-                                   manip, c, a_count, a_fx, a_fy)
+        map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
+                         False)  # summaries only
+        if manip is not None:
+            collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
+                                   ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
     if manip is not None:
         manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy)
 
 
 @njit(cache=True)
-def collect_counted_forces(xs, ys, finger, hand, outs, forces, ncol, ncol_max, k, manip, c,
-                           a_count, a_fx, a_fy):
-    """The counted poses of one map (MODEL 10): Scenario B entries (command 1/1) into row c of
-    `manip`, Scenario A forces (each command F_left of manip.a_commands, F_right = 2 - F_left)
-    into the cell's per-pose buffers. Forces are the per-unit-tension resultants times S_geo."""
+def shared_finger_links_and_statics(shared, finger):
+    """Per point of a cell's shared finger field, what every width's map reads from it for the
+    manipulation metric: the link vectors l1 (cos t1, sin t1) and l2 (cos phi, sin phi) in the
+    finger's frame, and the finger's statics per unit tension (determined, resultant x, y)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = np.empty((4, ny, nm))
+    statics = np.empty((3, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
+            t1 = shared.t1[0, j, m]
+            phi = t1 + shared.t2[0, j, m]
+            # the products finger_polyline forms, so world coordinates match it bit for bit
+            links[0, j, m] = finger.l1 * math.cos(t1)
+            links[1, j, m] = finger.l1 * math.sin(t1)
+            links[2, j, m] = finger.l2 * math.cos(phi)
+            links[3, j, m] = finger.l2 * math.sin(phi)
+            st = finger_statics_at(shared, 0, j, m, finger)
+            statics[0, j, m] = 1.0 if st.determined else 0.0
+            statics[1, j, m] = st.resultant_x
+            statics[2, j, m] = st.resultant_y
+    return links, statics
+
+
+@njit(cache=True)
+def world_polyline(links, j, m, side, w):
+    """finger_polyline from precomputed link vectors (same operations, same bits)."""
+    sign = 1.0 if side == 1 else -1.0
+    jx = sign * 0.5 * w
+    bx = jx + sign * links[0, j, m]
+    by = links[1, j, m]
+    tx = bx + sign * links[2, j, m]
+    ty = by + links[3, j, m]
+    return jx, 0.0, bx, by, tx, ty
+
+
+@njit(cache=True)
+def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, step, ncol,
+                           ncol_max, k, manip, c, a_count, a_fx, a_fy):
+    """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
+    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9).
+    Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces (each command
+    F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose buffers. Forces are
+    the fingers' per-unit-tension resultants (world frame) times S_geo."""
     capacity = manip.pose.shape[1]
     n_lattice = 2 * manip.lattice_ncol[c] + 1
     for j in range(ys.shape[0]):
+        y = ys[j]
         for col in range(xs.shape[0]):
-            if not counts_for_manipulation(j, col, xs[col], ys[j], finger, hand, outs, forces):
+            if outs.point_class[j, col] != REACHED or outs.equilibrium[j, col]:
                 continue
-            s_geo = forces.geometric_cage_score[j, col]
-            lx = forces.resultant_x[0, j, col]
-            ly = forces.resultant_y[0, j, col]
-            rx = forces.resultant_x[1, j, col]
-            ry = forces.resultant_y[1, j, col]
+            x = xs[col]
+            if touches_palm(x, y, hand.w, finger.r):
+                continue
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared field's columns (gather_fingers)
+            src_r = i - step - m_lo
+            # cheapest first: statics (precomputed), containment, then the opening
+            if statics[0, j, src_l] == 0.0 or statics[0, j, src_r] == 0.0:
+                continue
+            left = world_polyline(links, j, src_l, 0, hand.w)
+            right = world_polyline(links, j, src_r, 1, hand.w)
+            if not part_contained(x, y, left, right):
+                continue
+            crossed = fingers_cross(left, right)
+            s_geo = cage_score(True, 0.0 if crossed else tip_clearance(left, right), finger.r)
+            if s_geo <= 0.0:
+                continue
+            lx = -statics[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics[2, j, src_l]
+            rx = statics[1, j, src_r]
+            ry = statics[2, j, src_r]
             e = manip.n_entries[c]
             if e < capacity:
-                i = col - ncol  # world column: x = i h
                 manip.pose[c, e] = j * n_lattice + i + manip.lattice_ncol[c]
                 manip.fx[c, e] = (lx + rx) * s_geo
                 manip.fy[c, e] = (ly + ry) * s_geo
                 manip.width[c, e] = k
-                manip.crossed[c, e] = outs.crossed[j, col]
+                manip.crossed[c, e] = crossed
             manip.n_entries[c] = e + 1
             a = col - ncol + ncol_max
             for f_left in manip.a_commands:

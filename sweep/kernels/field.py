@@ -200,12 +200,22 @@ def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_po
         outs.contained[j, i] = inside
         outs.l_open[j, i] = opening
         outs.crossed[j, i] = intersect
-        caged_geometry = inside and opening < 2.0 * r - RANGE_TOL  # L_open == 2r: not caged
-        if caged_geometry and forces is not None and c == REACHED:
-            forces.geometric_cage_score[j, i] = 1.0 - opening / (2.0 * r)
-        if eq and caged_geometry:
+        score = cage_score(inside, opening, r)
+        if forces is not None and c == REACHED:
+            forces.geometric_cage_score[j, i] = score
+        if eq and score > 0.0:
             outs.caged[j, i] = True
-            outs.caging_score[j, i] = 1.0 - opening / (2.0 * r)
+            outs.caging_score[j, i] = score
+
+
+@njit(cache=True)
+def cage_score(inside, opening, r):
+    """S = 1 - L_open / (2r) where the part is contained and L_open < 2r, else 0 (MODEL 8; an
+    exact tie L_open == 2r is not caged, model-notes D5). Stability is the caller's business:
+    S of a stable point is the caging score, of any reached point S_geo (MODEL 10)."""
+    if inside and opening < 2.0 * r - RANGE_TOL:
+        return 1.0 - opening / (2.0 * r)
+    return 0.0
 
 
 @njit(cache=True)
@@ -217,16 +227,6 @@ def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
     intersect = fingers_cross(left, right)
     opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
     return inside, intersect, opening
-
-
-@njit(cache=True)
-def counts_for_manipulation(j, i, x, y, finger, hand, outs, forces):
-    """MODEL 10: a pose counts iff reached, not touching the palm, not in equilibrium, S_geo > 0,
-    and both fingers' forces determined by statics (model-notes D9)."""
-    return (outs.point_class[j, i] == REACHED and not outs.equilibrium[j, i]
-            and not touches_palm(x, y, hand.w, finger.r)
-            and forces.geometric_cage_score[j, i] > 0.0
-            and forces.determined[0, j, i] and forces.determined[1, j, i])
 
 
 # ---------------------------------------------------------------------------------------------
