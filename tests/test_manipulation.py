@@ -101,3 +101,73 @@ def test_chunks_merge_to_the_whole_run():
         np.testing.assert_array_equal(a.reduction.values(), b.reduction.values())
         np.testing.assert_array_equal(a.reduction.parameter_usage(),
                                       b.reduction.parameter_usage())
+
+
+# ---------------------------------------------------------------------------------------------
+# Through the sweep: stores, chunks and merge
+# ---------------------------------------------------------------------------------------------
+CONFIG = __import__("pathlib").Path(__file__).parent / "data" / "manipulation.yaml"
+
+
+def _variables(path):
+    import h5py
+
+    with h5py.File(path, "r") as f:
+        return {k: f[k][...] for k in f if isinstance(f[k], h5py.Dataset)}
+
+
+@pytest.fixture(scope="module")
+def whole_store(tmp_path_factory):
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    out = tmp_path_factory.mktemp("whole") / "m.h5"
+    res = CliRunner().invoke(main, ["run", str(CONFIG), "--out", str(out), "--no-progress"])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_store_holds_the_metric_and_matches_the_reference(whole_store):
+    import xarray as xr
+
+    with xr.open_dataset(whole_store, engine="h5netcdf") as ds:
+        assert ds["manipulation_b"].dims == ("r", "mu")
+        assert ds["parameter_usage"].dims == ("r", "mu", "parameter")
+        assert ds["manipulation_a"].dims == ("l1", "l2", "r1", "r2", "r", "mu")
+        b = float(ds["manipulation_b"].values[0, 0])
+        pose_value = ds["manipulation_b_pose_value"].values[0, 0]
+        usage = ds["parameter_usage"].values[0, 0]
+        assert ds.attrs["manipulation_scenario_a_top_k"] == 2
+    geometries = [(w, l1, l2, r1, r2) for l1 in (0.4, 1.4) for l2 in (0.8, 1.2)
+                  for r1 in (0.12, 0.16) for r2 in (0.10, 0.14) for w in (0.0, 0.8, 1.2)]
+    # search ranges of this config (upper - lower): w, l1, l2, r1, r2
+    ref = naive_metric(geometries, PART, H, SCENARIO_B_COMMANDS,
+                       search_ranges=(1.2, 1.0, 0.4, 0.04, 0.04))
+    assert ref["total"] > 0
+    assert b == pytest.approx(ref["total"], rel=1e-9)
+    n = (pose_value.shape[1] - ref["values"].shape[1]) // 2  # the store pads to the widest part
+    np.testing.assert_allclose(pose_value[:, n:pose_value.shape[1] - n], ref["values"],
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(usage, ref["usage"], rtol=1e-9, equal_nan=True)
+
+
+def test_chunked_run_merges_to_the_same_bytes(whole_store, tmp_path):
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    runner = CliRunner()
+    for chunk in range(3):
+        res = runner.invoke(main, ["run", str(CONFIG), "--chunk", str(chunk), "--chunks", "3",
+                                   "--out", str(tmp_path / "run"), "--no-progress"])
+        assert res.exit_code == 0, res.output
+    res = runner.invoke(main, ["merge", str(tmp_path / "run"), "--out", str(tmp_path / "m.h5")])
+    assert res.exit_code == 0, res.output
+    whole, merged = _variables(whole_store), _variables(tmp_path / "m.h5")
+    assert set(whole) == set(merged)
+    for name in whole:
+        if whole[name].dtype.kind == "O":  # strings
+            assert whole[name].tolist() == merged[name].tolist(), name
+        else:
+            assert whole[name].tobytes() == merged[name].tobytes(), name
