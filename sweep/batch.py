@@ -125,13 +125,14 @@ def part_lattice_columns(max_w: float, max_l1: float, max_l2: float, r: float, h
 def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: Limits,
                        accuracy: Accuracy, effects: Effects, items: np.ndarray,
                        part_keys: np.ndarray, lattice_ncol: np.ndarray,
-                       capacity: int = ENTRY_CAPACITY,
-                       command: Command = Command()) -> tuple[np.ndarray, ManipulationChunk]:
+                       capacity: int = ENTRY_CAPACITY, command: Command = Command(),
+                       pose_values: bool = False) -> tuple[np.ndarray, ManipulationChunk]:
     """Summaries (as `summarize_cells` under `command`) and the manipulation data of cells
     whose items are `items` (consecutive work-item indices): Scenario A's metric per cell and
     Scenario B's reductions per part (`part_keys[c]` = (r index, mu index) of cell c, whose
     lattice has columns -lattice_ncol[c] .. lattice_ncol[c]). Geometry index of a map: its item
-    index x n_w + its width index."""
+    index x n_w + its width index. With `pose_values`, the chunk also carries Scenario A's value
+    of every pose (`chunk.a_pose_value[c]`, on the grid of the cell's widest map)."""
     cells = np.ascontiguousarray(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
     widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
     items = np.asarray(items, dtype=np.int64)
@@ -154,11 +155,14 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     def run(rows, capacity):
         out = np.zeros((rows.size, widths.size, len(SUMMARY_FIELDS)))
         m = rows.size
+        shape = ((m, int(nys[rows].max()), 2 * int(ncols[rows].max()) + 1) if pose_values
+                 else (0, 0, 0))
         manip = ManipulationOut(
             np.zeros((m, capacity), dtype=np.int64), np.zeros((m, capacity)),
             np.zeros((m, capacity)), np.zeros((m, capacity), dtype=np.int64),
             np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
-            lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64))
+            lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64),
+            np.zeros(shape))
         summarize_cells_shared(np.ascontiguousarray(cells[rows]), widths,
                                np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
                                command.f_left, command.f_right, limits.theta2_min,
@@ -171,7 +175,9 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
         out2, manip2 = run(over, int(manip.n_entries.max()))
         out[over] = out2
         manip = ManipulationOut(*[_splice(a, b, over) for a, b in zip(manip[:7], manip2[:7])],
-                                manip.lattice_ncol, manip.a_commands)
+                                manip.lattice_ncol, manip.a_commands,
+                                _splice(manip.a_pose_value, manip2.a_pose_value, over)
+                                if pose_values else manip.a_pose_value)
     parts: dict = {}
     keys = [tuple(int(v) for v in k) for k in np.asarray(part_keys).reshape(-1, 2)]
     for key in sorted(set(keys)):
@@ -198,4 +204,23 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
         }
         assert tuple(parts[key]) == REDUCTIONS
     start = int(items[0]) if n else 0
-    return out, ManipulationChunk(start, start + n, manip.a_metric.copy(), parts)
+    chunk = ManipulationChunk(start, start + n, manip.a_metric.copy(), parts)
+    if pose_values:
+        chunk.a_pose_value = manip.a_pose_value
+    return out, chunk
+
+
+def scenario_a_pose_values(candidate, part, widths, h: float, limits: Limits = Limits(),
+                           accuracy: Accuracy = Accuracy(), effects: Effects = Effects()):
+    """Scenario A per pose for one candidate (l1, l2, r1, r2) and part (r, mu) over `widths`
+    (MODEL 10): (x, y, values) on the grid of the widest map, and the metric (their sum)."""
+    cell = np.array([[*candidate, *part]], dtype=np.float64)
+    widths = np.asarray(widths, dtype=np.float64)
+    n_col = part_lattice_columns(widths.max(), candidate[0], candidate[1], part[0], h)
+    _, chunk = manipulation_cells(cell, widths, h, limits, accuracy, effects, np.array([0]),
+                                  np.array([[0, 0]]), np.array([n_col]), pose_values=True)
+    values = chunk.a_pose_value[0]
+    ny, nx = values.shape
+    x = (np.arange(nx) - nx // 2) * h
+    y = part[0] + np.arange(ny) * h
+    return x, y, values, float(chunk.a_metric[0])

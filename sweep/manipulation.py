@@ -287,6 +287,7 @@ class ManipulationChunk:
     stop: int
     a_metric: np.ndarray                       # (stop - start,)
     parts: dict                                # (ri, mui) -> {"all": PartReduction, ...}
+    a_pose_value: np.ndarray | None = None     # per-pose Scenario A values, when asked for
 
     def merge(self, other: "ManipulationChunk") -> "ManipulationChunk":
         """Two chunks of adjacent items, in either order."""

@@ -108,7 +108,7 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
             collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
                                    ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
     if manip is not None:
-        manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy)
+        manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
 
 
 @njit(cache=True)
@@ -200,16 +200,21 @@ def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, ste
 
 
 @njit(cache=True)
-def pose_radius_sum(count, fx, fy):
-    """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10)."""
+def pose_radius_sum(count, fx, fy, pose_value, c):
+    """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
+    each pose's value also into pose_value[c] when that array has rows."""
+    keep = pose_value.shape[0] > 0
     total = 0.0
     for j in range(count.shape[0]):
         for a in range(count.shape[1]):
             n = count[j, a]
-            if n < 3:
-                continue
-            hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
-            total += inscribed_radius(hx, hy, hx.shape[0])
+            value = 0.0
+            if n >= 3:
+                hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
+                value = inscribed_radius(hx, hy, hx.shape[0])
+            total += value
+            if keep:
+                pose_value[c, j, a] = value
     return total
 
 

@@ -152,6 +152,8 @@ class ManipulationOut(NamedTuple):
     a_metric: np.ndarray      # (n_cells,)
     lattice_ncol: np.ndarray  # (n_cells,) int64: the part lattice's columns are -N .. N
     a_commands: np.ndarray    # (n_commands,) F_left of Scenario A (F_right = 2 - F_left)
+    a_pose_value: np.ndarray  # (n_cells, rows, columns) per-pose A values on the cell's widest
+                              # map's grid when asked for (pictures), else (0, 0, 0)
 
 
 @njit(cache=True)
