@@ -200,76 +200,158 @@ class HullReduction:
         out.n_kept[:] = n_kept
         return out
 
-    def add_entries(self, pose, fx, fy, geometry, params) -> None:
-        """Add a batch of forces, entry e at pose[e] (an index of this reduction's poses), with
-        its geometry index and parameters (n_entries, 5). Order-independent like `add`."""
+    def add_rows(self, pose, rows, rows_first) -> None:
+        """Add points given as full state rows (x, y, parameter minima, maxima; `rows_first`
+        their smallest geometry index), point e at pose[e] of this reduction. Order-independent
+        like `add`; merging reductions is adding their kept rows."""
         pose = np.asarray(pose, dtype=np.int64)
         order = np.argsort(pose, kind="stable")
         pose = pose[order]
-        fx = np.ascontiguousarray(np.asarray(fx, dtype=np.float64)[order])
-        fy = np.ascontiguousarray(np.asarray(fy, dtype=np.float64)[order])
-        geometry = np.ascontiguousarray(np.asarray(geometry, dtype=np.int64)[order])
-        params = np.ascontiguousarray(np.asarray(params, dtype=np.float64)[order])
+        rows = np.ascontiguousarray(np.asarray(rows, dtype=np.float64)[order])
+        rows_first = np.ascontiguousarray(np.asarray(rows_first, dtype=np.int64)[order])
         if pose.size and (pose[0] < 0 or pose[-1] >= self.n_poses):
-            raise ValueError("entry pose outside the reduction")
-        if not (np.isfinite(fx).all() and np.isfinite(fy).all()):
+            raise ValueError("point pose outside the reduction")
+        if not np.isfinite(rows[:, :2]).all():
             raise ValueError("a counted force is not finite")
         seg_start = np.searchsorted(pose, np.arange(self.n_poses + 1), side="left")
         done = np.zeros(self.n_poses, dtype=np.int64)
         status = np.zeros(self.n_poses, dtype=np.int64)
         while True:
             _hull.reduction_add_entries(self.points, self.first, self.n_hull, self.n_kept,
-                                        seg_start, fx, fy, geometry, params, done, status,
-                                        _n_blocks())
+                                        seg_start, rows, rows_first, done, status, _n_blocks())
             if not (status == _hull.STATUS_OVERFLOW).any():
                 return
             self._grow(2 * self.capacity)
+
+    def kept_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(pose of each kept row, rows (K, 12), smallest geometry index (K,)), pose-major."""
+        keep = np.arange(self.capacity)[None, :] < self.n_kept[:, None]
+        pose = np.broadcast_to(np.arange(self.n_poses)[:, None], keep.shape)[keep]
+        return pose, self.points[keep], self.first[keep]
 
 
 # ---------------------------------------------------------------------------------------------
 # Sparse per-part reductions and the manipulation data of a chunk of work items
 # ---------------------------------------------------------------------------------------------
+#: Poses reduced at once: the dense per-pose arrays of a batch are (poses x capacity x 12)
+#: doubles, so batching bounds the memory of a merge whatever the number of poses.
+POSE_BATCH = 2048
+
+
+def _raw_rows(fx, fy, params) -> np.ndarray:
+    params = np.asarray(params, dtype=np.float64).reshape(-1, _hull.N_PARAMS)
+    rows = np.empty((params.shape[0], _hull.N_COLS))
+    rows[:, _hull.X] = fx
+    rows[:, _hull.Y] = fy
+    rows[:, _hull.PMIN:_hull.PMIN + _hull.N_PARAMS] = params
+    rows[:, _hull.PMAX:_hull.PMAX + _hull.N_PARAMS] = params
+    return rows
+
+
 @dataclass
 class PartReduction:
-    """A HullReduction over the poses of one part's lattice that ever received a force:
-    `pose_ids` (sorted, unique flat lattice indices) name its rows. Memory follows the counted
-    poses (about 1% of a map's points), not the whole lattice."""
+    """The Scenario B reduction of one part over the poses that ever received a force, stored
+    ragged: `pose_ids` (sorted, unique flat lattice indices), per pose `n_hull` and its kept rows
+    `rows[offsets[p]:offsets[p+1]]` (hull vertices first, CCW, then near points; kernels/hull.py)
+    with their smallest geometry index `first`. Memory follows the kept points, a handful per
+    pose; every operation works on batches of POSE_BATCH poses."""
 
     pose_ids: np.ndarray
-    reduction: HullReduction
+    offsets: np.ndarray
+    n_hull: np.ndarray
+    rows: np.ndarray
+    first: np.ndarray
+
+    @classmethod
+    def reduce(cls, pose, rows, first) -> "PartReduction":
+        """The reduction of points (rows with their pose's flat lattice index)."""
+        pose = np.asarray(pose, dtype=np.int64)
+        order = np.argsort(pose, kind="stable")
+        pose, rows, first = pose[order], np.asarray(rows)[order], np.asarray(first)[order]
+        ids = np.unique(pose)
+        seg = np.searchsorted(pose, ids, side="left")
+        seg = np.append(seg, pose.size)
+        n_kept = np.zeros(ids.size, dtype=np.int64)
+        n_hull = np.zeros(ids.size, dtype=np.int64)
+        out_rows, out_first = [], []
+        for p0 in range(0, ids.size, POSE_BATCH):
+            p1 = min(p0 + POSE_BATCH, ids.size)
+            a, b = seg[p0], seg[p1]
+            red = HullReduction.empty(p1 - p0)
+            red.add_rows(np.searchsorted(ids[p0:p1], pose[a:b]), rows[a:b], first[a:b])
+            _, kept, kept_first = red.kept_rows()
+            out_rows.append(kept)
+            out_first.append(kept_first)
+            n_kept[p0:p1] = red.n_kept
+            n_hull[p0:p1] = red.n_hull
+        offsets = np.zeros(ids.size + 1, dtype=np.int64)
+        np.cumsum(n_kept, out=offsets[1:])
+        return cls(ids, offsets, n_hull,
+                   np.concatenate(out_rows) if out_rows else np.zeros((0, _hull.N_COLS)),
+                   np.concatenate(out_first) if out_first else np.zeros(0, dtype=np.int64))
 
     @classmethod
     def from_entries(cls, pose, fx, fy, geometry, params) -> "PartReduction":
-        pose = np.asarray(pose, dtype=np.int64)
-        ids = np.unique(pose)
-        red = HullReduction.empty(ids.size)
-        red.add_entries(np.searchsorted(ids, pose), fx, fy, geometry, params)
-        return cls(ids, red)
+        """Raw forces: entry e at flat lattice pose[e], from geometry[e] with params[e]."""
+        return cls.reduce(pose, _raw_rows(fx, fy, params), np.asarray(geometry, dtype=np.int64))
+
+    @classmethod
+    def merge_all(cls, parts) -> "PartReduction":
+        """The union of many reductions (the hull of a union is the hull of the parts' hulls)."""
+        parts = list(parts)
+        pose = np.concatenate([np.repeat(p.pose_ids, np.diff(p.offsets)) for p in parts])
+        return cls.reduce(pose, np.concatenate([p.rows for p in parts]),
+                          np.concatenate([p.first for p in parts]))
 
     def merge(self, other: "PartReduction") -> "PartReduction":
-        ids = np.union1d(self.pose_ids, other.pose_ids)
-        return PartReduction(ids, self._expand(ids).merge(other._expand(ids)))
+        return PartReduction.merge_all([self, other])
 
-    def _expand(self, ids: np.ndarray) -> HullReduction:
-        """This reduction's rows placed on the (larger, sorted) pose set `ids`."""
-        out = HullReduction.empty(ids.size, self.reduction.capacity)
-        rows = np.searchsorted(ids, self.pose_ids)
-        out.points[rows] = self.reduction.points
-        out.first[rows] = self.reduction.first
-        out.n_hull[rows] = self.reduction.n_hull
-        out.n_kept[rows] = self.reduction.n_kept
+    def _batches(self):
+        """Dense HullReductions of POSE_BATCH poses at a time: (first pose, reduction)."""
+        n = self.pose_ids.size
+        for p0 in range(0, n, POSE_BATCH):
+            p1 = min(p0 + POSE_BATCH, n)
+            a, b = self.offsets[p0], self.offsets[p1]
+            yield p0, HullReduction.from_arrays(dict(
+                offsets=self.offsets[p0:p1 + 1] - a, n_hull=self.n_hull[p0:p1],
+                force=self.rows[a:b, :2],
+                param_min=self.rows[a:b, _hull.PMIN:_hull.PMIN + _hull.N_PARAMS],
+                param_max=self.rows[a:b, _hull.PMAX:_hull.PMAX + _hull.N_PARAMS],
+                first_geometry=self.first[a:b]))
+
+    def values(self) -> np.ndarray:
+        """Per pose (of pose_ids) the MODEL 10 value: the inscribed radius of its hull."""
+        out = np.zeros(self.pose_ids.size)
+        for p0, red in self._batches():
+            out[p0:p0 + red.n_poses] = red.values()
         return out
 
+    def parameter_usage(self, search_ranges=PAPER_SEARCH_RANGES) -> np.ndarray:
+        """MODEL 10 parameter usage (see HullReduction.parameter_usage), over all poses."""
+        search_ranges = np.asarray(search_ranges, dtype=np.float64)
+        ranges = np.zeros((self.pose_ids.size, _hull.N_PARAMS))
+        positive = np.zeros(self.pose_ids.size, dtype=bool)
+        for p0, red in self._batches():
+            ranges[p0:p0 + red.n_poses] = red.parameter_ranges()
+            positive[p0:p0 + red.n_poses] = red.values() > 0.0
+        if not positive.any():
+            return np.full(_hull.N_PARAMS, np.nan)
+        mean_range = ranges[positive].mean(axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(search_ranges > 0, mean_range / search_ranges, np.nan)
+
     def to_arrays(self) -> dict:
-        return {"pose_ids": self.pose_ids.copy(), **self.reduction.to_arrays()}
+        return dict(pose_ids=self.pose_ids, offsets=self.offsets, n_hull=self.n_hull,
+                    rows=self.rows, first=self.first)
 
     @classmethod
     def from_arrays(cls, arrays: dict) -> "PartReduction":
-        ids = np.asarray(arrays["pose_ids"], dtype=np.int64)
-        red = HullReduction.from_arrays({k: v for k, v in arrays.items() if k != "pose_ids"})
-        if red.n_poses != ids.size:
-            raise ValueError("inconsistent part reduction (pose_ids)")
-        return cls(ids, red)
+        out = cls(*(np.asarray(arrays[k]) for k in ("pose_ids", "offsets", "n_hull", "rows",
+                                                      "first")))
+        if (out.offsets.shape != (out.pose_ids.size + 1,) or out.rows.shape[0] != out.offsets[-1]
+                or out.first.shape[0] != out.offsets[-1]):
+            raise ValueError("inconsistent part reduction arrays")
+        return out
 
 
 #: The reductions kept per part: every counted force, and those where the fingers do not cross
@@ -289,17 +371,25 @@ class ManipulationChunk:
     parts: dict                                # (ri, mui) -> {"all": PartReduction, ...}
     a_pose_value: np.ndarray | None = None     # per-pose Scenario A values, when asked for
 
+    @classmethod
+    def merge_all(cls, chunks) -> "ManipulationChunk":
+        """Chunks of adjacent items (any order) as one: Scenario A's metrics side by side, each
+        part's reductions merged in one pass."""
+        chunks = sorted(chunks, key=lambda ch: ch.start)
+        for a, b in zip(chunks, chunks[1:]):
+            if a.stop != b.start:
+                raise ValueError(f"chunks {a.start}-{a.stop} and {b.start}-{b.stop} are not "
+                                 "adjacent")
+        keys = sorted({key for ch in chunks for key in ch.parts})
+        parts = {key: {name: PartReduction.merge_all([ch.parts[key][name] for ch in chunks
+                                                      if key in ch.parts])
+                       for name in REDUCTIONS} for key in keys}
+        return cls(chunks[0].start, chunks[-1].stop,
+                   np.concatenate([ch.a_metric for ch in chunks]), parts)
+
     def merge(self, other: "ManipulationChunk") -> "ManipulationChunk":
         """Two chunks of adjacent items, in either order."""
-        a, b = (self, other) if self.start <= other.start else (other, self)
-        if a.stop != b.start:
-            raise ValueError(f"chunks {a.start}-{a.stop} and {b.start}-{b.stop} are not adjacent")
-        parts = dict(a.parts)
-        for key, reds in b.parts.items():
-            parts[key] = ({k: parts[key][k].merge(reds[k]) for k in REDUCTIONS}
-                          if key in parts else reds)
-        return ManipulationChunk(a.start, b.stop, np.concatenate([a.a_metric, b.a_metric]),
-                                 parts)
+        return ManipulationChunk.merge_all([self, other])
 
     def write(self, group) -> None:
         """Into an h5py group (a block file's `manipulation` group)."""

@@ -297,11 +297,7 @@ def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
     if pick is None:
         raise StoreError(f"blocks {sorted(b.range for b in blocks)} do not cover items "
                          f"{start}-{stop}")
-    merged = None
-    for i in sorted(pick, key=lambda k: blocks[k].start):
-        chunk = read_manipulation(blocks[i].path)
-        merged = chunk if merged is None else merged.merge(chunk)
-    return merged
+    return ManipulationChunk.merge_all(read_manipulation(blocks[i].path) for i in pick)
 
 
 MANIPULATION_ATTRS = {
@@ -351,14 +347,14 @@ def manipulation_arrays(scene: Scene, chunk: ManipulationChunk) -> dict[str, np.
     search = np.array([max(scene.values[p]) - min(scene.values[p]) for p in PARAMETER_NAMES])
     for (ri, mui), reds in chunk.parts.items():
         red = reds["all"]
-        values = red.reduction.values()
+        values = red.values()
         width = 2 * int(n_cols[ri]) + 1
         rows, cols = np.divmod(red.pose_ids, width)
         pose_value[ri, mui, rows, cols - int(n_cols[ri]) + n_max] = values
         b[ri, mui] = values.sum()
-        b_uncrossed[ri, mui] = reds["uncrossed"].reduction.values().sum()
+        b_uncrossed[ri, mui] = reds["uncrossed"].values().sum()
         n_positive[ri, mui] = int((values > 0).sum())
-        usage[ri, mui] = red.reduction.parameter_usage(search)
+        usage[ri, mui] = red.parameter_usage(search)
     h2 = scene.h * scene.h
     return dict(manipulation_a=a, manipulation_a_area=a * h2, manipulation_b=b,
                 manipulation_b_area=b * h2, manipulation_b_uncrossed=b_uncrossed,

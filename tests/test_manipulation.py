@@ -34,7 +34,7 @@ def kernel_scenario_b(geometries, part, h):
         merged = reds if merged is None else {k: merged[k].merge(reds[k]) for k in merged}
     values = np.zeros((n_row + 1, 2 * n_col + 1))
     red = merged["all"]
-    values.ravel()[red.pose_ids] = red.reduction.values()
+    values.ravel()[red.pose_ids] = red.values()
     return values, merged, a_metrics
 
 
@@ -53,16 +53,16 @@ def test_scenario_b_pose_values_match_the_reference(scenario_b):
 
 def test_scenario_b_parameter_usage_matches_the_reference(scenario_b):
     (_, merged, _), ref = scenario_b
-    usage = merged["all"].reduction.parameter_usage()
+    usage = merged["all"].parameter_usage()
     np.testing.assert_allclose(usage, ref["usage"], rtol=1e-9, atol=1e-12, equal_nan=True)
 
 
 def test_scenario_b_without_crossed_fingers_never_exceeds_the_whole(scenario_b):
     (values, merged, _), _ = scenario_b
-    uncrossed = merged["uncrossed"].reduction.values()
+    uncrossed = merged["uncrossed"].values()
     whole = merged["all"]
     rows = np.searchsorted(whole.pose_ids, merged["uncrossed"].pose_ids)
-    assert (uncrossed <= whole.reduction.values()[rows] + 1e-15).all()  # a sub-hull is inside
+    assert (uncrossed <= whole.values()[rows] + 1e-15).all()  # a sub-hull is inside
     assert uncrossed.sum() <= values.sum()
 
 
@@ -98,9 +98,8 @@ def test_chunks_merge_to_the_whole_run():
     for name in ("all", "uncrossed"):
         a, b = merged.parts[(0, 0)][name], whole.parts[(0, 0)][name]
         np.testing.assert_array_equal(a.pose_ids, b.pose_ids)
-        np.testing.assert_array_equal(a.reduction.values(), b.reduction.values())
-        np.testing.assert_array_equal(a.reduction.parameter_usage(),
-                                      b.reduction.parameter_usage())
+        np.testing.assert_array_equal(a.values(), b.values())
+        np.testing.assert_array_equal(a.parameter_usage(), b.parameter_usage())
 
 
 # ---------------------------------------------------------------------------------------------

@@ -544,12 +544,14 @@ def reduction_parameter_ranges(pts, first, n_hull, n_kept, values, ranges, n_blo
 
 
 @njit(cache=True, parallel=True)
-def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, fx, fy, geometry, params, done,
-                          status, n_blocks):
-    """Add a batch of forces sorted by pose: pose p's entries are seg_start[p] .. seg_start[p+1]-1
-    (fx, fy, their geometry index and its 5 parameters (w, l1, l2, r1, r2) per entry).
+def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, rows, rows_first, done, status,
+                          n_blocks):
+    """Add a batch of points sorted by pose: pose p's points are rows seg_start[p] ..
+    seg_start[p+1]-1 (each a full state row: x, y, parameter minima and maxima, with its
+    smallest geometry index in rows_first). Raw forces have minima = maxima; rows of another
+    reduction carry their aggregated ranges, so merging many reductions is adding their rows.
 
-    done[p] counts the entries of pose p already added; on overflow the pose keeps what it has,
+    done[p] counts the points of pose p already added; on overflow the pose keeps what it has,
     status[p] = STATUS_OVERFLOW, and a call with grown arrays resumes at done[p]. Non-finite
     forces are skipped (STATUS_NONFINITE). Poses are independent: blocks of poses in parallel."""
     n_poses, cap = pts.shape[0], pts.shape[1]
@@ -571,16 +573,15 @@ def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, fx, fy, geometr
         for pose in range(lo, hi):
             status[pose] = STATUS_OK
             for e in range(seg_start[pose] + done[pose], seg_start[pose + 1]):
-                if not (math.isfinite(fx[e]) and math.isfinite(fy[e])):
+                if not (math.isfinite(rows[e, X]) and math.isfinite(rows[e, Y])):
                     status[pose] = STATUS_NONFINITE
                     done[pose] += 1
                     continue
-                point[0, X] = fx[e] + 0.0
-                point[0, Y] = fy[e] + 0.0
-                for c in range(N_PARAMS):
-                    point[0, PMIN + c] = params[e, c]
-                    point[0, PMAX + c] = params[e, c]
-                point_first[0] = geometry[e]
+                for col in range(N_COLS):
+                    point[0, col] = rows[e, col]
+                point[0, X] = rows[e, X] + 0.0
+                point[0, Y] = rows[e, Y] + 0.0
+                point_first[0] = rows_first[e]
                 nh, nk = _add_point(pts[pose], first[pose], n_hull[pose], n_kept[pose], point,
                                     point_first, cand, cand_first, uniq, uniq_first, order, chain,
                                     is_vertex, expansion)
