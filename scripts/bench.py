@@ -5,7 +5,8 @@ Prints, in one run:
   2. points/s of the Numba kernels on a few maps (whole maps, warm);
   3. points/s of the paper-style baseline (scripts/paper_baseline.py) on a random sample of the
      same maps' grid points, the speed ratio per point, and the agreement of point classes;
-  4. maps/s of the sweep (shared finger fields, all threads) on a random sample of the paper's cells;
+  4. maps/s of the sweep (shared finger fields, all threads) on a random sample of the paper's
+     cells;
   5. time versus grid spacing h (0.2, 0.1, 0.05, 0.025) for one cell's six maps.
 
     .venv/bin/python scripts/bench.py [--baseline-points 120] [--cells 96] [--threads N]
@@ -29,7 +30,7 @@ import paper_baseline  # noqa: E402  (scripts/ is not a package)
 from sweep import __version__  # noqa: E402
 from sweep.batch import summarize_cells  # noqa: E402
 from sweep.maps import compute_map, finger_offsets, map_grid  # noqa: E402
-from sweep.model import (INFEASIBLE, POINT_CLASS_MEANINGS, Accuracy, Command, Design,  # noqa: E402
+from sweep.model import (INFEASIBLE, Accuracy, Command, Design,  # noqa: E402
                          Grid, Limits, Part)
 
 BENCH_MAPS = [  # (design, part): the issue's reference design and two contrasting ones
@@ -61,7 +62,8 @@ def machine():
                 break
     except OSError:
         pass
-    return f"{platform.node()} | {cpu} | {os.cpu_count()} cores | Python {platform.python_version()}"
+    return (f"{platform.node()} | {cpu} | {os.cpu_count()} cores | "
+            f"Python {platform.python_version()}")
 
 
 def time_call(fn, repeat=3):
@@ -105,7 +107,7 @@ def main(argv=None):
     ratios = []
     for design, part in BENCH_MAPS:
         grid = Grid(h=args.h)
-        seconds = time_call(lambda: compute_map(design, part, grid=grid))
+        seconds = time_call(lambda d=design, p=part, g=grid: compute_map(d, p, grid=g))
         m = compute_map(design, part, grid=grid)
         n = m.fields["energy"].size
         kernel_rate = n / seconds
@@ -157,7 +159,7 @@ def main(argv=None):
     print("|---|---|---|---|")
     cell = np.array([[1.2, 0.8, 0.12, 0.1, 0.8, 0.4]])
     for h in (0.2, 0.1, 0.05, 0.025):
-        seconds = time_call(lambda: summarize_cells(cell, widths, Command(), h, limits,
+        seconds = time_call(lambda h=h: summarize_cells(cell, widths, Command(), h, limits,
                                                     accuracy), repeat=2)
         res = summarize_cells(cell, widths, Command(), h, limits, accuracy)
         pts = res[..., list(summarize_fields()).index("n_points")].sum()

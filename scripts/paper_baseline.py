@@ -3,7 +3,8 @@
 For every grid point and each finger, the vector-loop equations of the paper (eq. "proximal vector
 loop" and "distal vector loop") are solved by ``scipy.optimize.least_squares`` on their residual,
 with bounds from the joint limits and the link lengths; a loop is *satisfied* when the residual norm
-left by the solver is below ``RES_TOL`` (1e-9) inside the bounds. No closed form of docs/model.md 3 is
+left by the solver is below ``RES_TOL`` (1e-9) inside the bounds. No closed form of docs/model.md 3
+is
 used. On top of these solves the closing sequence (MODEL 4), the stick-slip cases and the
 reconfiguration (MODEL 5, docs/model-notes.md D4: step ``t1`` down, solve the distal loop by
 least squares at every node, then bisect), the energy (MODEL 6) and the point classes (MODEL 8) are
@@ -19,7 +20,8 @@ Conventions (docs/model-notes.md): finger index 0 = left, 1 = right; angles in r
 finger is solved in its own mirrored frame. Infeasible points have ``point_class`` 0, NaN energy and
 ``finger_mode`` -1 (``NOT_SOLVED``); points skipped by ``max_points`` have ``point_class`` -1.
 
-CLI: ``python scripts/paper_baseline.py [--h 0.2] [--max-points N] ...`` prints points/s for one map.
+CLI: ``python scripts/paper_baseline.py [--h 0.2] [--max-points N] ...`` prints points/s for one
+map.
 """
 from __future__ import annotations
 
@@ -366,7 +368,8 @@ def grid_indices(l1, l2, w, r, h, xlim=None, ylim=None):
         n = math.floor((w / 2 + l1 + l2 + r) / h + M.GRID_TOL)
         i_idx = np.arange(-n, n + 1)
     else:
-        i_idx = np.arange(math.ceil(xlim[0] / h - M.GRID_TOL), math.floor(xlim[1] / h + M.GRID_TOL) + 1)
+        i_idx = np.arange(math.ceil(xlim[0] / h - M.GRID_TOL),
+                          math.floor(xlim[1] / h + M.GRID_TOL) + 1)
     if ylim is None:
         m = math.floor((l1 + l2) / h + M.GRID_TOL)   # ((r + l1 + l2) - r) / h
         j_idx = np.arange(0, m + 1)
@@ -437,7 +440,8 @@ def main(argv=None):
     pc = res["point_class"]
     counts = {name: int((pc == code).sum()) for code, name in enumerate(M.POINT_CLASS_MEANINGS)}
     n, sec = res["n_points_solved"], res["seconds"]
-    print(f"design l1={a.l1} l2={a.l2} r1={a.r1} r2={a.r2} w={a.w}  part r={a.r} mu={a.mu}  h={a.h}")
+    print(f"design l1={a.l1} l2={a.l2} r1={a.r1} r2={a.r2} w={a.w}  part r={a.r} mu={a.mu}  "
+          f"h={a.h}")
     print(f"grid {pc.shape[0]} x {pc.shape[1]}, solved {n} points in {sec:.2f} s: "
           f"{n / sec:.1f} points/s")
     print("classes:", counts)

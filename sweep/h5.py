@@ -41,7 +41,8 @@ def atomic_file(path: str | os.PathLike, mode: str = "w"):
     write_bytes_atomic(path, buffer.getbuffer())
 
 
-def write_coordinate(f: h5py.Group, name: str, values, attrs: Mapping | None = None) -> h5py.Dataset:
+def write_coordinate(f: h5py.Group, name: str, values,
+                     attrs: Mapping | None = None) -> h5py.Dataset:
     """A 1-D coordinate variable that is also the dimension scale of dimension `name`."""
     values = np.asarray(values)
     if values.dtype.kind in "UO":

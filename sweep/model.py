@@ -7,7 +7,7 @@ compile time on purpose).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 # ---------------------------------------------------------------------------------------------
 # Categorical codes (stored with CF flag_values / flag_meanings)

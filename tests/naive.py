@@ -531,7 +531,7 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
     crossed = np.zeros(shape, dtype=bool)
 
     # --- Per point: configurations, energy, class, equilibrium, containment, opening -------
-    for jj, j in enumerate(j_range):
+    for jj, _j in enumerate(j_range):
         py = y[jj]
         for ii, i in enumerate(i_range):
             px = x[ii]
@@ -575,7 +575,8 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
                     normals.append((0.0, 1.0))
                 out["equilibrium"][jj, ii] = in_equilibrium(normals, mu)
             stable[jj, ii] = cls == REACHED and out["equilibrium"][jj, ii]
-            caged[jj, ii] = stable[jj, ii] and out["contained"][jj, ii] and l_open < 2.0 * r - RANGE_TOL
+            caged[jj, ii] = (stable[jj, ii] and out["contained"][jj, ii]
+                             and l_open < 2.0 * r - RANGE_TOL)
             if caged[jj, ii]:
                 out["caging_score"][jj, ii] = 1.0 - l_open / (2.0 * r)
 

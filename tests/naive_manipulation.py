@@ -60,7 +60,8 @@ def rot90(v):
 # Statics of one finger (MODEL 5.1, 5.6), in the right finger's frame
 # ---------------------------------------------------------------------------------------------
 def finger_contacts(res, l1):
-    """[(link, point c, unit normal n)] of a finger's tangent contacts; link 1 proximal, 2 distal."""
+    """[(link, point c, unit normal n)] of a finger's tangent contacts; link 1 proximal, 2
+    distal."""
     t1, t2, mode = res["t1"], res["t2"], res["mode"]
     a_x = np.array([math.cos(t1), math.sin(t1)])
     b_x = np.array([math.cos(t1 + t2), math.sin(t1 + t2)])
@@ -144,7 +145,7 @@ def finger_forces(res, l1, r1, r2, mu, theta2_min=THETA2_MIN, theta2_max=THETA2_
 
     # Uniqueness: over the optimal set, does any component of the resultant move?
     resultant_rows = np.zeros((2, n_var))
-    for i, (_, c, n) in enumerate(contacts):
+    for i, (_, _c, n) in enumerate(contacts):
         t = rot90(n)
         resultant_rows[:, i] = n
         resultant_rows[:, n_c + i], resultant_rows[:, 2 * n_c + i] = t, -t
@@ -257,7 +258,8 @@ def world_lattice(geometries, r, h):
 
 
 def hull_value(points):
-    """(value, hull vertices) by Qhull: radius of the largest origin-centred circle inside the hull."""
+    """(value, hull vertices) by Qhull: radius of the largest origin-centred circle inside the
+    hull."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(points) < 3:
         return 0.0, points[:0]

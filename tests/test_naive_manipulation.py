@@ -71,7 +71,7 @@ def test_finger_forces_satisfy_the_joint_equations_and_the_cones():
         assert torque_j == pytest.approx(r1 + out["stops"].get(1, 0.0), abs=1e-12)
         assert torque_b == pytest.approx(r2 + out["stops"].get(2, 0.0), abs=1e-12)
         np.testing.assert_allclose(sum(f for _, f in out["contacts"]), out["force"], atol=1e-15)
-        for (c, f), m in zip(out["contacts"], out["mu"]):
+        for (_c, _f), m in zip(out["contacts"], out["mu"]):
             assert abs(m) <= mu * (1 + 1e-9)
         # A lower stop pushes closing, an upper stop opening: never the other way.
         if on_limit(res["t2"], THETA2_MAX):

@@ -1,4 +1,5 @@
-"""Fast checks of the paper-style baseline (scripts/paper_baseline.py) on analytic cases of docs/model.md.
+"""Fast checks of the paper-style baseline (scripts/paper_baseline.py) on analytic cases of
+docs/model.md.
 
 The expected values are computed here by hand from MODEL 3 closed forms; the baseline itself only
 uses least squares on the vector-loop equations.

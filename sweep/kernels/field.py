@@ -32,7 +32,7 @@ from ..model import (
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   tip_clearance, touches_palm)
+                   tip_clearance)
 from .records import EffectBlocks, FingerState
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.

@@ -366,7 +366,8 @@ def _add_point(row, row_first, nh, nk, point, point_first, cand, cand_first, uni
         if nk + 1 > cap:
             return -1, -1
         pos = nk                                   # insert among the near points by (x, y)
-        while pos > nh and (px < row[pos - 1, X] or (px == row[pos - 1, X] and py < row[pos - 1, Y])):
+        while pos > nh and (px < row[pos - 1, X]
+                            or (px == row[pos - 1, X] and py < row[pos - 1, Y])):
             for col in range(N_COLS):
                 row[pos, col] = row[pos - 1, col]
             row_first[pos] = row_first[pos - 1]
