@@ -456,7 +456,7 @@ def register(group: click.Group) -> None:
 
     run.help = cmd_run.__doc__
 
-    @group.command("slurm", short_help="Print an sbatch array script for a sweep.")
+    @group.command("slurm", short_help="Print (or --submit) an sbatch array script for a sweep.")
     @click.argument("config", type=CONFIG)
     @click.option("--chunks", type=click.IntRange(min=1), required=True,
                   help="Number of chunks (array tasks).")

@@ -27,7 +27,7 @@ PACKAGES = ("slurm-wlm", "munge")
 BINARIES = ("munged", "slurmctld", "slurmd", "slurmstepd", "sbatch", "scancel", "squeue",
             "sinfo", "scontrol")
 #: Process names whose new instances must be gone once the cluster is stopped.
-DAEMON_NAMES = ("munged", "slurmctld", "slurmd", "slurmstepd")
+DAEMON_NAMES = ("munged", "slurmctld", "slurmscriptd", "slurmd", "slurmstepd")
 LOG_LINES = 40
 # Hang guards only (never asserted): how long a daemon may take to come up or go down.
 START_TIMEOUT = 60.0
@@ -132,6 +132,7 @@ class LocalSlurm:
                                "and munged as the munge user: it must run as root")
         ensure_installed(self.log)
         self.before = processes_named()
+        _become_subreaper()
         # Readable by munged (another user) on the way to its own directory.
         self.root = Path(tempfile.mkdtemp(prefix="sweep-slurm-"))
         self.root.chmod(0o755)
@@ -199,6 +200,7 @@ SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 SchedulerType=sched/backfill
 MpiDefault=none
+MailProg=/bin/true
 ReturnToService=2
 KillWait=5
 MinJobAge=600
@@ -255,6 +257,23 @@ PartitionName=debug Nodes={self.node} Default=YES MaxTime=INFINITE State=UP
         return [pid for pid, name in processes_named().items()
                 if pid not in self.before and name == "slurmstepd" and not _is_zombie(pid)]
 
+    def _job_processes(self) -> list[int]:
+        """Live processes (jobs, clients) started with this cluster's SLURM_CONF, but us."""
+        if not self.env.get("SLURM_CONF"):
+            return []
+        marker = b"SLURM_CONF=" + self.env["SLURM_CONF"].encode()
+        found = []
+        for entry in Path("/proc").iterdir():
+            if not entry.name.isdigit() or int(entry.name) == os.getpid():
+                continue
+            try:
+                if marker in (entry / "environ").read_bytes().split(b"\0") and \
+                        not _is_zombie(int(entry.name)):
+                    found.append(int(entry.name))
+            except OSError:
+                continue
+        return found
+
     # -----------------------------------------------------------------------------------------
     def run(self, cmd, check=True, **kwargs) -> subprocess.CompletedProcess:
         """A SLURM client command against this cluster."""
@@ -301,8 +320,8 @@ PartitionName=debug Nodes={self.node} Default=YES MaxTime=INFINITE State=UP
                 p.kill()
                 p.wait()
         # slurmstepd runs detached from slurmd: any new one is ours.
-        for pid in self._new_stepds():
-            problems.append(f"slurmstepd (pid {pid}) outlived slurmd; killed")
+        for pid in self._new_stepds() + self._job_processes():
+            problems.append(f"pid {pid} ({_comm(pid)}) outlived slurmd; killed")
             try:
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
@@ -310,8 +329,9 @@ PartitionName=debug Nodes={self.node} Default=YES MaxTime=INFINITE State=UP
         deadline = time.monotonic() + STOP_TIMEOUT
         left = {}
         while time.monotonic() < deadline:
-            left = {pid: n for pid, n in processes_named().items() if pid not in self.before
-                    and not _is_zombie(pid)}
+            _reap_orphans()
+            left = {pid: n for pid, n in processes_named().items() if pid not in self.before}
+            left.update({pid: _comm(pid) for pid in self._job_processes()})
             if not left:
                 break
             time.sleep(0.2)
@@ -323,6 +343,34 @@ PartitionName=debug Nodes={self.node} Default=YES MaxTime=INFINITE State=UP
                                + ", ".join(f"{n} (pid {p})" for p, n in left.items()))
         for p in problems:
             self.log(f"local_slurm: {p}")
+
+
+def _become_subreaper() -> None:
+    """Orphans of our daemons (slurmstepd detaches from slurmd) become our children, so this
+    process can reap them and nothing of the cluster is left even as a zombie."""
+    import ctypes
+
+    PR_SET_CHILD_SUBREAPER = 36
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+
+
+def _reap_orphans() -> None:
+    """Collect the exit status of every finished child (called once our daemons are gone)."""
+    while True:
+        try:
+            pid, _ = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            return
+
+
+def _comm(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/comm").read_text().strip()
+    except OSError:
+        return "gone"
 
 
 def _is_zombie(pid: int) -> bool:
