@@ -224,20 +224,22 @@ def test_a_cancelled_task_resubmitted_resumes_its_shard(cluster, work, local_sto
         if waiting.poll() is None:
             waiting.kill()
             waiting.wait()
-    assert waiting.returncode != 0                              # one task did not succeed
-    assert cluster.job_state(f"{job_id}_{k}") == "CANCELLED"
+    why = f"sbatch --wait: {err}\n{job_logs(out)}"
+    assert waiting.returncode != 0, why                         # one task did not succeed
+    assert cluster.job_state(f"{job_id}_{k}") == "CANCELLED", why
     for i in range(N_CHUNKS):
         if i != k:
-            assert cluster.job_state(f"{job_id}_{i}") == "COMPLETED", job_logs(out)
+            assert cluster.job_state(f"{job_id}_{i}") == "COMPLETED", why
     task_err = (out / "logs" / f"{job_id}_{k}.err").read_text()
-    assert "terminated; finished sub-chunks are kept" in task_err   # sweep saw SIGTERM
-    assert not shard.exists()
+    assert "terminated; finished sub-chunks are kept" in task_err, why   # sweep saw SIGTERM
+    assert not shard.exists(), why
     kept = sorted(parts.glob("items-*.h5"))
-    assert len(kept) >= kept_before
+    assert len(kept) >= kept_before, why
     kept_items = sum(int(b) - int(a) for a, b in
                      (re.match(r"items-(\d+)-(\d+)\.h5", p.name).groups() for p in kept))
     status = sweep(cluster, "status", out)
-    assert status.returncode == 1 and re.search(rf"^\s+{k}\s+missing", status.stdout, re.M)
+    assert status.returncode == 1 and re.search(rf"^\s+{k}\s+missing", status.stdout, re.M), \
+        status.stdout + why
 
     # resubmit index k alone (--array on the command line overrides the script's)
     res = cluster.run(["sbatch", "--wait", f"--array={k}", str(script_file)], check=False,
@@ -249,7 +251,7 @@ def test_a_cancelled_task_resubmitted_resumes_its_shard(cluster, work, local_sto
     assert m, log
     n_maps, computed = (int(g.replace(",", "")) for g in m.groups())
     items = ranges[k][1] - ranges[k][0]
-    assert computed == n_maps - kept_items * (n_maps // items)  # only what was not kept
+    assert computed == n_maps - kept_items * (n_maps // items), log  # only what was not kept
     assert shard.exists() and not parts.exists()
     merge(cluster, out, work / "cancelled.h5")
     assert_same_as_local(local_store, work / "cancelled.h5", out)
