@@ -314,13 +314,19 @@ def test_submit_runs_the_array_and_the_merge_job(cluster, work, local_store):
     array_id = re.search(r"^array job (\d+)", res.stdout, re.M).group(1)
     merge_id = re.search(r"^merge job (\d+)", res.stdout, re.M).group(1)
     assert (out / "sweep-array.sbatch").exists() and (out / "sweep-merge.sbatch").exists()
-    show = cluster.run(["scontrol", "-o", "show", "job", merge_id]).stdout
-    assert f"Dependency=afterok:{array_id}" in show or "Dependency=(null)" in show
     state = _wait_finished(cluster, merge_id)
     assert state == "COMPLETED", job_logs(out)
     for i in range(N_CHUNKS):
         assert cluster.job_state(f"{array_id}_{i}") == "COMPLETED"
+    # the dependency held: the merge started only once the last task had ended
+    ends = [_job_field(cluster, f"{array_id}_{i}", "EndTime") for i in range(N_CHUNKS)]
+    assert _job_field(cluster, merge_id, "StartTime") >= max(ends)   # ISO times sort as text
     assert_same_as_local(local_store, out / "results.h5", out)
+
+
+def _job_field(cluster, job_id: str, field: str) -> str:
+    show = cluster.run(["scontrol", "-o", "show", "job", job_id]).stdout
+    return re.search(rf"\b{field}=(\S+)", show).group(1)
 
 
 def _wait_finished(cluster, job_id: str) -> str:
