@@ -139,7 +139,8 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
                f"{res.wall_seconds:.1f} s; {rate:,.0f} maps/s of compute")
 
 
-@click.command("slurm", cls=SweepCommand, short_help="Print an sbatch array script for a sweep.")
+@click.command("slurm", cls=SweepCommand,
+               short_help="Print (or --submit) an sbatch array script for a sweep.")
 @click.argument("config", type=CONFIG)
 @click.option("--chunks", type=click.IntRange(min=1), required=True,
               help="Number of chunks (array tasks).")
@@ -158,9 +159,13 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
               help="Command that runs sweep on the nodes (default: this installation's).")
 @click.option("--sbatch", "sbatch_opts", multiple=True, metavar="KEY=VALUE",
               help="Extra #SBATCH option, repeatable (e.g. --sbatch qos=long).")
+@click.option("--submit", is_flag=True,
+              help="Submit the array and a dependent merge job instead of printing.")
+@click.option("--results", type=click.Path(dir_okay=False, path_type=Path), default=None,
+              help="With --submit: the store the merge job writes [default: DIR/results.h5].")
 def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem, partition,
-                  account, job_name, sweep_cmd, sbatch_opts):
-    """Print an sbatch array script that runs the sweep as N chunks.
+                  account, job_name, sweep_cmd, sbatch_opts, submit, results):
+    """Print an sbatch array script that runs the sweep as N chunks, or --submit it.
 
     \b
     sweep slurm configs/paper.yaml --chunks 64 --out runs/paper > paper.sbatch
@@ -168,15 +173,24 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     sweep status runs/paper
     sweep merge runs/paper --out paper.h5
 
+    \b
+    sweep slurm configs/paper.yaml --chunks 64 --out runs/paper --submit
+    submits the array and a merge job that runs once every task succeeded
+    (--dependency=afterok), writing --results (default DIR/results.h5); prints both job ids.
+    The scripts are kept as DIR/sweep-array.sbatch and DIR/sweep-merge.sbatch; resubmit a
+    failed task I with `sbatch --array=I DIR/sweep-array.sbatch` (it resumes its shard).
+
     Creates DIR and DIR/logs (Slurm does not create log directories) and writes the frozen config
     and chunk plan to DIR/sweep-manifest.json, so every task checks it runs the same sweep.
     """
+    from . import slurm
     from .chunks import chunk_ranges
     from .outputs import os_errors_named
     from .rundir import RunDir, ensure_manifest
-    from .slurm import sbatch_script
 
     scene = config
+    if results is not None and not submit:
+        raise click.UsageError("--results names the merge job's output: it needs --submit")
     extra = {}
     for item in sbatch_opts:
         key, sep, value = item.partition("=")
@@ -193,15 +207,60 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     if out.exists() and not out.is_dir():
         raise UserError(f"--out: {out} is a file; it names the run directory")
     rundir = RunDir(out.resolve())
+    job_name = job_name or f"sweep-{scene.name}"
+    text = slurm.sbatch_script(
+        config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
+        job_name=job_name, sweep_cmd=sweep_cmd, parallel=parallel,
+        cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
+        account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
+    sbatch = None
+    if submit:  # everything checked before anything is written
+        results = (results or rundir.root / "results.h5").resolve()
+        if results.exists():
+            raise UserError(f"--results: {results} exists; the merge job would refuse "
+                            "to replace it: move it away or choose another --results")
+        sbatch = shutil.which("sbatch")
+        if sbatch is None:
+            raise UserError("--submit: sbatch is not on PATH (run this on a SLURM "
+                            "login node, or drop --submit and copy the script)")
+        try:
+            slurm.check(text, sbatch)
+        except slurm.SubmitError as exc:
+            raise UserError(f"--submit: {exc}") from None
     ensure_manifest(rundir, scene, chunks)
     with os_errors_named(rundir.logs, "cannot create folder"):
         rundir.logs.mkdir(parents=True, exist_ok=True)
-    text = sbatch_script(
-        config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
-        job_name=job_name or f"sweep-{scene.name}", sweep_cmd=sweep_cmd, parallel=parallel,
-        cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
-        account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
-    click.echo(text, nl=False)
+    if not submit:
+        click.echo(text, nl=False)
+        return
+    _submit_array_and_merge(rundir, text, slurm.merge_script(
+        out_dir=str(rundir.root), results=str(results), job_name=f"{job_name}-merge",
+        sweep_cmd=sweep_cmd, time=time_limit, partition=partition, account=account,
+        extra=extra), results, chunks, sbatch)
+
+
+def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sbatch):
+    """Write both scripts into the run directory (kept for resubmitting a task), submit the
+    array, then the merge job depending on it; print the job ids."""
+    from . import slurm
+
+    array_path = rundir.root / "sweep-array.sbatch"
+    merge_path = rundir.root / "sweep-merge.sbatch"
+    slurm.write_script(array_path, array_text)
+    slurm.write_script(merge_path, merge_text)
+    try:
+        array_id = slurm.submit(array_path, sbatch=sbatch)
+    except slurm.SubmitError as exc:
+        raise UserError(str(exc)) from None
+    click.echo(f"array job {array_id}: {chunks} tasks writing shards into {rundir.root}")
+    try:
+        merge_id = slurm.submit(merge_path, [f"--dependency=afterok:{array_id}"], sbatch=sbatch)
+    except slurm.SubmitError as exc:
+        raise UserError(f"array job {array_id} is submitted but the merge job is "
+                        f"not ({exc}); merge by hand with `sweep merge "
+                        f"{rundir.root} --out {results}` once it is done") from None
+    click.echo(f"merge job {merge_id}: after every task of {array_id} succeeds, writes {results}")
+    click.echo(f"resubmit a failed task I with: sbatch --array=I {array_path}")
 
 
 @click.command("status", cls=SweepCommand, short_help="Which shards of a run directory are done.")

@@ -1,13 +1,19 @@
-"""The sbatch array script of a chunked sweep: a pure function of its inputs (golden-file tested).
+"""The sbatch scripts of a chunked sweep, and their submission.
 
+`sbatch_script` and `merge_script` are pure functions of their inputs (golden-file tested).
 Array task ``i`` runs ``sweep run CONFIG --out DIR --chunks N``; `sweep run` reads the chunk index
 from ``SLURM_ARRAY_TASK_ID`` and its thread count from ``SLURM_CPUS_PER_TASK``. Logs go to
-``DIR/logs/%A_%a.out`` (job id, array index).
+``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` once every array
+task has succeeded; `submit` hands a script file to ``sbatch`` and returns the job id.
 """
 from __future__ import annotations
 
 import shlex
-from collections.abc import Mapping
+import subprocess
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from .outputs import write_bytes_atomic
 
 
 def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
@@ -60,3 +66,77 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
         "",
     ]
     return "\n".join(lines)
+
+
+def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
+                 time: str = "01:00:00", partition: str | None = None,
+                 account: str | None = None, extra: Mapping[str, str] | None = None) -> str:
+    """Text of the sbatch script that merges the shards of `out_dir` into the store `results`.
+
+    It is submitted with ``--dependency=afterok:<array job id>`` (the id is known only then), so
+    it runs once, after every array task succeeded. One core: the merge only copies arrays.
+    """
+    flags = {
+        "cpus-per-task": "1",
+        "error": f"{out_dir}/logs/merge_%j.err",
+        "job-name": job_name,
+        "ntasks": "1",
+        "output": f"{out_dir}/logs/merge_%j.out",
+        "time": time,
+    }
+    if partition:
+        flags["partition"] = partition
+    if account:
+        flags["account"] = account
+    for k, v in (extra or {}).items():
+        flags[k.lstrip("-")] = str(v)
+    lines = ["#!/bin/bash"]
+    lines += [f"#SBATCH --{k}={v}" for k, v in sorted(flags.items())]
+    lines += [
+        "",
+        "# Runs after every array task succeeded (submitted with --dependency=afterok:ARRAY_ID).",
+        "set -euo pipefail",
+        f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)}",
+        "# REPORT HOOK: when `sweep report` exists, write the report of the merged store here,",
+        f"# e.g.  {sweep_cmd} report {shlex.quote(results)}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+class SubmitError(RuntimeError):
+    """sbatch is missing or refused a script; the message is sbatch's own."""
+
+
+def check(script_text: str, sbatch: str = "sbatch") -> None:
+    """Ask the scheduler whether it would accept the script (``sbatch --test-only``): a bad
+    partition, account or limit is refused here, before anything is written or submitted."""
+    cmd = [sbatch, "--test-only"]
+    try:
+        res = subprocess.run(cmd, input=script_text, capture_output=True, text=True)
+    except OSError as exc:
+        raise SubmitError(f"cannot run {sbatch}: {exc.strerror}") from None
+    if res.returncode != 0:
+        why = " ".join(res.stderr.split()) or f"exit code {res.returncode}"
+        raise SubmitError(f"sbatch refuses the array script: {why}")
+
+
+def write_script(path: Path, text: str) -> None:
+    """The script written atomically (the one writer of sweep.outputs)."""
+    write_bytes_atomic(path, text.encode())
+
+
+def submit(script_path: str, options: Sequence[str] = (), sbatch: str = "sbatch") -> str:
+    """Submit `script_path` with ``sbatch --parsable`` (plus `options`); return the job id."""
+    cmd = [sbatch, "--parsable", *options, str(script_path)]
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True)
+    except OSError as exc:
+        raise SubmitError(f"cannot run {sbatch}: {exc.strerror}") from None
+    if res.returncode != 0:
+        why = " ".join(res.stderr.split()) or f"exit code {res.returncode}"
+        raise SubmitError(f"{' '.join(cmd)}: {why}")
+    job_id = res.stdout.strip().split(";")[0]      # --parsable: "ID" or "ID;CLUSTER"
+    if not job_id.isdigit():
+        raise SubmitError(f"{' '.join(cmd)}: unexpected answer {res.stdout.strip()!r}")
+    return job_id

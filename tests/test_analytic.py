@@ -251,7 +251,10 @@ def test_reconfiguration_terminates_for_any_step():
     tiny_step = reconfig(dx, dy, t1, l1, l2, 0.2, 0.06, r, 0.0, TH2MIN, TH2MAX, 1e-300, 1e-12)
     assert all(math.isfinite(v) for v in tiny_step[1:])
     assert coarse[0] == DISTAL_ONLY and 0 < coarse[1] < t1
-    # a step below float resolution collapses the path to one bracket [0, t1]; the stick region
-    # of this path (around t1 = 1.06) does not reach t1 = 0, so the bracket ends on the
-    # proximal stop: defined, but not the stepped answer, which is why the edge refuses it
-    assert tiny_step[0] == DISTAL_ONLY and tiny_step[1] == 0.0
+    # a step below float resolution collapses the path to one bracket [0, t1] (the nodes all
+    # equal t1 until the last, t1 = 0); the stick region of this path reaches t1 = 0, so the
+    # bracket's root finder lands on the same stick boundary as the stepped path. (The first
+    # version computed the node count as int64 math.ceil(t1 / 1e-300), which overflowed, skipped
+    # the path and reported the proximal stop; NUMBA_DISABLE_JIT=1 showed the difference.)
+    assert tiny_step[0] == DISTAL_ONLY
+    assert tiny_step[1] == pytest.approx(coarse[1], abs=1e-9)

@@ -258,9 +258,11 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     hi = t1_start
     lo = t1_start
     events = 0
-    # Bounded in floating point (no int overflow for any step); the last node is t1 = 0, where the
-    # proximal stop always holds, so the loop always ends on an event.
-    n_max = int(min(math.ceil(t1_start / step), MAX_PATH_STEPS)) + 1
+    # Bounded in floating point before converting (no int overflow for any step: Numba's
+    # math.ceil returns int64, which overflowed for t1 / step > 9.2e18 and skipped the path; found
+    # by running the tests under NUMBA_DISABLE_JIT=1). The last node is t1 = 0, where the proximal
+    # stop always holds, so the loop always ends on an event.
+    n_max = int(math.ceil(min(t1_start / step, float(MAX_PATH_STEPS)))) + 1
     for n in range(1, n_max + 1):
         lo = t1_start - n * step
         if lo <= 0.0 or n == n_max:
