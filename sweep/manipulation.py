@@ -264,31 +264,29 @@ class PartReduction:
 
     @classmethod
     def reduce(cls, pose, rows, first) -> "PartReduction":
-        """The reduction of points (rows with their pose's flat lattice index)."""
+        """The reduction of points (rows with their pose's flat lattice index): every pose's
+        state rebuilt from all its candidates at once (kernels/hull.py:
+        reduction_rebuild_ragged). Non-finite forces are refused."""
         pose = np.asarray(pose, dtype=np.int64)
+        rows = np.asarray(rows, dtype=np.float64).reshape(-1, _hull.N_COLS)
+        if not np.isfinite(rows[:, :2]).all():
+            raise ValueError("a counted force is not finite")
         order = np.argsort(pose, kind="stable")
-        pose, rows, first = pose[order], np.asarray(rows)[order], np.asarray(first)[order]
+        pose = pose[order]
+        rows = np.ascontiguousarray(rows[order])
+        first = np.ascontiguousarray(np.asarray(first, dtype=np.int64)[order])
         ids = np.unique(pose)
-        seg = np.searchsorted(pose, ids, side="left")
-        seg = np.append(seg, pose.size)
-        n_kept = np.zeros(ids.size, dtype=np.int64)
+        seg = np.append(np.searchsorted(pose, ids, side="left"), pose.size).astype(np.int64)
+        out_rows = np.empty_like(rows)
+        out_first = np.empty_like(first)
         n_hull = np.zeros(ids.size, dtype=np.int64)
-        out_rows, out_first = [], []
-        for p0 in range(0, ids.size, POSE_BATCH):
-            p1 = min(p0 + POSE_BATCH, ids.size)
-            a, b = seg[p0], seg[p1]
-            red = HullReduction.empty(p1 - p0)
-            red.add_rows(np.searchsorted(ids[p0:p1], pose[a:b]), rows[a:b], first[a:b])
-            _, kept, kept_first = red.kept_rows()
-            out_rows.append(kept)
-            out_first.append(kept_first)
-            n_kept[p0:p1] = red.n_kept
-            n_hull[p0:p1] = red.n_hull
+        n_kept = np.zeros(ids.size, dtype=np.int64)
+        _hull.reduction_rebuild_ragged(seg, rows, first, out_rows, out_first, n_hull, n_kept,
+                                       _n_blocks())
+        keep = np.arange(pose.size) < np.repeat(seg[:-1] + n_kept, np.diff(seg))
         offsets = np.zeros(ids.size + 1, dtype=np.int64)
         np.cumsum(n_kept, out=offsets[1:])
-        return cls(ids, offsets, n_hull,
-                   np.concatenate(out_rows) if out_rows else np.zeros((0, _hull.N_COLS)),
-                   np.concatenate(out_first) if out_first else np.zeros(0, dtype=np.int64))
+        return cls(ids, offsets, n_hull, out_rows[keep], out_first[keep])
 
     @classmethod
     def from_entries(cls, pose, fx, fy, geometry, params) -> "PartReduction":

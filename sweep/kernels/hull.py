@@ -140,7 +140,14 @@ def _lex_less(buf, i, j):
 
 @njit(cache=True)
 def _sort_rows(buf, order, n):
-    """Indices of the first n rows in (x, y) order (insertion sort: n is small)."""
+    """Indices of the first n rows in (x, y) order: insertion sort for the usual handful of rows,
+    two stable merge sorts (by y, then by x) for the thousands a merge of many chunks brings."""
+    if n > 32:
+        by_y = np.argsort(buf[:n, Y], kind="mergesort")
+        by_x = np.argsort(buf[:n, X][by_y], kind="mergesort")
+        for i in range(n):
+            order[i] = by_y[by_x[i]]
+        return
     for i in range(n):
         order[i] = i
     for i in range(1, n):
@@ -592,3 +599,48 @@ def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, rows, rows_firs
                 n_hull[pose] = nh
                 n_kept[pose] = nk
                 done[pose] += 1
+
+
+@njit(cache=True, parallel=True)
+def reduction_rebuild_ragged(seg_start, rows, rows_first, out_rows, out_first, out_hull,
+                             out_kept, n_blocks):
+    """The canonical state of every pose from all its candidate points at once (one `_rebuild`
+    per pose): pose p's candidates are rows seg_start[p] .. seg_start[p+1]-1 (full state rows:
+    raw forces, or the kept rows of several reductions being merged); its state goes to the
+    same positions of out_rows / out_first (n_kept <= candidates), with out_hull[p],
+    out_kept[p]. The state is a function of the candidate set (exact hull, duplicates merged,
+    near points kept against the final hull), so adding points one at a time, merging chunks
+    pairwise or rebuilding at once all give the same hull, values and usage."""
+    n_poses = seg_start.shape[0] - 1
+    m = 1
+    for p in range(n_poses):
+        m = max(m, seg_start[p + 1] - seg_start[p])
+    n_blocks = _blocks(n_poses, n_blocks)
+    for b in prange(n_blocks):
+        lo = b * n_poses // n_blocks
+        hi = (b + 1) * n_poses // n_blocks
+        cand = np.empty((m, N_COLS))
+        cand_first = np.empty(m, dtype=np.int64)
+        uniq = np.empty((m, N_COLS))
+        uniq_first = np.empty(m, dtype=np.int64)
+        order = np.empty(m, dtype=np.int64)
+        chain = np.empty(2 * m + 1, dtype=np.int64)
+        is_vertex = np.empty(m, dtype=np.bool_)
+        expansion = np.empty(16)
+        for pose in range(lo, hi):
+            a = seg_start[pose]
+            n = seg_start[pose + 1] - a
+            for k in range(n):
+                for col in range(N_COLS):
+                    cand[k, col] = rows[a + k, col]
+                cand[k, X] += 0.0   # one bit pattern for -0.0 and 0.0
+                cand[k, Y] += 0.0
+                cand_first[k] = rows_first[a + k]
+            if n == 0:
+                out_hull[pose] = 0
+                out_kept[pose] = 0
+                continue
+            nh, nk = _rebuild(cand, cand_first, n, uniq, uniq_first, order, chain, is_vertex,
+                              expansion, out_rows[a:a + n], out_first[a:a + n], n)
+            out_hull[pose] = nh
+            out_kept[pose] = nk
