@@ -458,7 +458,7 @@ def _n_items(b) -> str:
               help="Scenario A candidates per part [default: the store's "
                    "manipulation_scenario_a_top_k].")
 @click.option("--overwrite", is_flag=True,
-              help="Replace a report in DIR made from another store or with other settings.")
+              help="Replace a report in DIR made from another store.")
 @WAIT
 def report(store, out, top_k, overwrite, wait):
     """Turn a results store into the paper's four experiments: best_caging.png,
@@ -468,8 +468,8 @@ def report(store, out, top_k, overwrite, wait):
     \b
     sweep report results/paper.h5 --out results/
 
-    Rerunning on the same store with the same settings is a no-op; a report of another store
-    in DIR needs --overwrite. A store without the manipulation metric (config option
+    Rerunning on the same store with the same settings is a no-op; a stale report of the same
+    store is redone; a report of another store in DIR needs --overwrite. A store without the manipulation metric (config option
     `outputs: {manipulation: true}`) gets the caging parts only, with a note in report.md.
     """
     import json
@@ -494,10 +494,13 @@ def report(store, out, top_k, overwrite, wait):
             click.echo(f"{out}: report of {store} is already complete; nothing to do")
             return
         present = [name for name in ALL_FILES if (out / name).exists()]
-        if present and found is not None and not same and not overwrite:
-            raise UserError(f"--out: {out} holds a report of another store or other settings "
-                            f"({found.get('store')}, top-k {found.get('top_k')}); pass "
-                            "--overwrite to replace it")
+        # Like `sweep run`: the report of this store (same file, same config) is redone when
+        # stale (store rewritten, other --top-k); a report of another store needs --overwrite.
+        ours = found is not None and all(found.get(k) == wanted[k]
+                                         for k in ("store", "config_hash"))
+        if present and found is not None and not ours and not overwrite:
+            raise UserError(f"--out: {out} holds the report of another store "
+                            f"({found.get('store')}); pass --overwrite to replace it")
         if present and found is None and not overwrite:
             raise UserError(f"--out: {out} already holds {present[0]}; pass --overwrite to "
                             "replace it")
