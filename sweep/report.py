@@ -50,6 +50,10 @@ MARKER = "report.json"
 ALL_FILES = CAGING_FILES + MANIPULATION_FILES + ("report.md", MARKER)
 #: Text format of every number of the report (tables, CSV and the reading alike).
 NUMBER = "{:.6g}"
+#: Significant digits at which Lambda (and Scenario A sums) are compared: designs with the same
+#: configurations (same R = r2/r1) sum the same scores in another order, which differs in the
+#: last bits (seen: 2913.620282318659 against ...658), and must tie.
+TIE_DIGITS = 9
 REPRESENTATIVE_KINDS = ("caging focused", "tip focused", "compromise")
 REPRESENTATIVE_COLOURS = {"caging focused": "#ff2d7a", "tip focused": "#ff9f1c",
                           "compromise": "#1f77b4"}
@@ -57,6 +61,13 @@ REPRESENTATIVE_COLOURS = {"caging focused": "#ff2d7a", "tip focused": "#ff9f1c",
 
 class ReportError(StoreError):
     """A store the report cannot use (CLI: one line, exit code 2)."""
+
+
+def tie_key(values) -> np.ndarray:
+    """Values rounded to TIE_DIGITS significant digits (NaN as -inf): equal keys tie."""
+    v = np.asarray(values, dtype=np.float64)
+    out = np.array([float(f"{x:.{TIE_DIGITS}g}") for x in v.ravel()]).reshape(v.shape)
+    return np.where(np.isnan(out), -np.inf, out)
 
 
 def fmt(v) -> str:
@@ -126,18 +137,19 @@ def open_store(path: Path) -> StoreData:
 # Tables (rows of plain values; CSV and markdown are made from them)
 # ---------------------------------------------------------------------------------------------
 def best_caging_rows(st: StoreData) -> list[dict]:
-    """Per part: the design of largest Lambda, first in store order among exact ties."""
+    """Per part: the design of largest Lambda, first in store order among ties (`tie_key`)."""
     rows = []
     for ri, mi in st.parts():
         lam = st.per_design("Lambda", ri, mi)
-        k = int(np.argmax(np.where(np.isnan(lam), -np.inf, lam)))
+        key = tie_key(lam)
+        k = int(np.argmax(key))
         d = st.design(k)
         rows.append(dict(r=float(st.r[ri]), mu=float(st.mu[mi]), **d, R=d["r2"] / d["r1"],
                          Lambda=float(lam[k]),
                          caging_area=float(st.per_design("caging_area", ri, mi)[k]),
                          n_caged=int(st.per_design("n_caged", ri, mi)[k]),
                          n_tip_prehension=int(st.per_design("n_tip_prehension", ri, mi)[k]),
-                         n_tied=int(np.count_nonzero(lam == lam[k])), design_index=k))
+                         n_tied=int(np.count_nonzero(key == key[k])), design_index=k))
     return rows
 
 
@@ -202,8 +214,7 @@ def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
     shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
     found = set()
     for ri, mi in st.parts():
-        lam = st.per_design("Lambda", ri, mi)
-        key = np.where(np.isnan(lam), -np.inf, lam)
+        key = tie_key(st.per_design("Lambda", ri, mi))
         for k in np.argsort(-key, kind="stable")[:top_k]:
             found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
     return sorted(found)
@@ -221,7 +232,7 @@ def candidate_rows(st: StoreData, top_k: int) -> list[dict]:
                          a_area_sum=float(np.nansum(a_area[c])),
                          parts_positive=int(np.count_nonzero(a[c] > 0)), best=False, index=c))
     if rows:
-        best = int(np.argmax([row["a_sum"] for row in rows]))
+        best = int(np.argmax(tie_key([row["a_sum"] for row in rows])))
         rows[best]["best"] = True
     return rows
 
@@ -321,7 +332,7 @@ def best_caging_figure(st: StoreData, rows: list[dict], log) -> Figure:
     from .plot import draw_map_panel
 
     n_r, n_mu = st.r.size, st.mu.size
-    fig = Figure(figsize=(4.6 * n_r + 0.5, 4.3 * n_mu + 1.2), dpi=100, layout="constrained")
+    fig = Figure(figsize=(5.0 * n_r + 0.5, 3.2 * n_mu + 1.0), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     axes = np.atleast_2d(fig.subplots(n_mu, n_r, squeeze=False))
     by_part = {(row["r"], row["mu"]): row for row in rows}
@@ -356,8 +367,8 @@ def caging_tip_figure(st: StoreData, rep_rows: list[dict], log) -> Figure:
         ax = axes[p, 0]
         # How many designs share each (caged, tip) point: colour, since many coincide.
         pts, counts = np.unique(np.column_stack([caged, tip]), axis=0, return_counts=True)
-        sc = ax.scatter(pts[:, 0], pts[:, 1], c=counts, cmap="Greys", norm="log", s=12,
-                        edgecolors="0.4", linewidths=0.3, vmin=1, vmax=max(counts.max(), 2))
+        sc = ax.scatter(pts[:, 0], pts[:, 1], c=counts, cmap="viridis", norm="log", s=10,
+                        linewidths=0, vmin=1, vmax=max(counts.max(), 2))
         cb = fig.colorbar(sc, ax=ax, pad=0.01, aspect=30)
         cb.set_label("designs at this point", fontsize=8)
         mine = [row for row in rep_rows if row["r"] == r and row["mu"] == mu]
@@ -607,7 +618,8 @@ def reading(st: StoreData, rep: Report) -> list[str]:
     out.append(f"- Caging: the best Λ over the {len(best)} parts ranges from {fmt(lo['Lambda'])} "
                f"({_part(lo)}) to {fmt(hi['Lambda'])} ({_part(hi)}). The best designs use "
                f"transmission ratio R = r2/r1 with {_spread(r['R'] for r in best)} and palm "
-               f"width w with {_spread(r['w'] for r in best)}. Exact ties for the best Λ: "
+               f"width w with {_spread(r['w'] for r in best)}. Ties for the best Λ (at {TIE_DIGITS} "
+               "significant digits): "
                f"{sum(r['n_tied'] > 1 for r in best)} of {len(best)} parts have more than one "
                f"best design (at most {max(r['n_tied'] for r in best)}).")
     zero = [r for r in best if not r["Lambda"] > 0]
@@ -756,10 +768,11 @@ def markdown(st: StoreData, rep: Report) -> str:
           "- All quantities are unitless (model units: lengths, tensions and forces per unit "
           "tendon tension)."]
     L += ["", "## Rules", "",
-          "- Best caging design of a part: largest Λ over (l1, l2, r1, r2, w); exact ties are "
+          "- Best caging design of a part: largest Λ over (l1, l2, r1, r2, w); ties are "
           "expected (configurations depend on the radii only through R = r2/r1), broken by the "
           "first design in store order (l1, l2, r1, r2, w, last fastest); `tied` counts the "
-          "designs with that Λ.",
+          f"designs with that Λ. Λ is compared at {TIE_DIGITS} significant digits: equal-R "
+          "designs sum the same scores in another order, which changes the last bits.",
           "- Caging versus tip prehension: the smallest and the largest part radius at the "
           "highest friction. Representative designs: *caging focused* = most caged end points "
           "(n_caged), fewer tip-prehension end points breaking ties; *tip focused* = most "
@@ -773,7 +786,7 @@ def markdown(st: StoreData, rep: Report) -> str:
         L += ["- Scenario A candidates: the (l1, l2, r1, r2) of the top-k caging designs (by Λ, "
               "store order among ties) of every part, duplicates merged. Best candidate: the "
               "largest Scenario A metric summed over all parts (first in store order among "
-              "ties). Per part, the scenario with the larger metric wins; equal metrics are a "
+              f"ties; both compared at {TIE_DIGITS} significant digits). Per part, the scenario with the larger metric wins; equal metrics are a "
               "tie.",
               "- Per-pose maps: the part with the largest min(A, B) of the best candidate's A "
               "and B, so that both maps show something (first in table order among ties)."]
