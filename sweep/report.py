@@ -346,8 +346,9 @@ def best_caging_figure(st: StoreData, rows: list[dict], log) -> Figure:
         draw_map_panel(axes[mi, ri], m, title=title, colorbar_label="energy V (unitless)")
     fig.suptitle("Best caging design of each part (largest Λ; columns: part radius r, rows: "
                  "friction μ)\nColour: energy V, each panel its own scale; white hatching: part "
-                 "in equilibrium; pink outline: caged region; gripper and part drawn to scale "
-                 f"at a representative caged pose; {NOTE_UNITLESS}", fontsize=11)
+                 "in equilibrium; pink outline: caged region; greys and tan: outside P_j (not reached); "
+                 "gripper and part drawn to scale at a representative caged pose; "
+                 f"{NOTE_UNITLESS}", fontsize=11)
     return fig
 
 
@@ -397,7 +398,8 @@ def caging_tip_figure(st: StoreData, rep_rows: list[dict], log) -> Figure:
                 spine.set_linewidth(2.5)
     fig.suptitle("Caging versus tip prehension per design, smallest and largest part at the "
                  "highest friction; three representative designs (rules in report.md) marked "
-                 f"and drawn (energy V, hatching: equilibrium, pink: caged region); "
+                 f"and drawn\n(energy V; hatching: equilibrium; pink: caged region; greys and tan: "
+                 "outside P_j); "
                  f"{NOTE_UNITLESS}", fontsize=11)
     return fig
 
