@@ -469,8 +469,9 @@ def report(store, out, top_k, overwrite, wait):
     sweep report results/paper.h5 --out results/
 
     Rerunning on the same store with the same settings is a no-op; a stale report of the same
-    store is redone; a report of another store in DIR needs --overwrite. A store without the manipulation metric (config option
-    `outputs: {manipulation: true}`) gets the caging parts only, with a note in report.md.
+    store is redone; a report of another store in DIR needs --overwrite. A store without the
+    manipulation metric (config option `outputs: {manipulation: true}`) gets the caging parts
+    only, with a note in report.md.
     """
     import json
 

@@ -54,7 +54,6 @@ NUMBER = "{:.6g}"
 #: configurations (same R = r2/r1) sum the same scores in another order, which differs in the
 #: last bits (seen: 2913.620282318659 against ...658), and must tie.
 TIE_DIGITS = 9
-REPRESENTATIVE_KINDS = ("caging focused", "tip focused", "compromise")
 REPRESENTATIVE_COLOURS = {"caging focused": "#ff2d7a", "tip focused": "#ff9f1c",
                           "compromise": "#1f77b4"}
 
@@ -149,6 +148,8 @@ def best_caging_rows(st: StoreData) -> list[dict]:
                          caging_area=float(st.per_design("caging_area", ri, mi)[k]),
                          n_caged=int(st.per_design("n_caged", ri, mi)[k]),
                          n_tip_prehension=int(st.per_design("n_tip_prehension", ri, mi)[k]),
+                         n_caged_points=int(st.per_design("n_caged_points", ri, mi)[k]),
+                         n_caged_crossed=int(st.per_design("n_caged_crossed", ri, mi)[k]),
                          n_tied=int(np.count_nonzero(key == key[k])), design_index=k))
     return rows
 
@@ -293,7 +294,7 @@ def md_table(rows: list[dict], columns: list[str], headers: list[str] | None = N
 
 
 BEST_COLUMNS = ["r", "mu", "l1", "l2", "r1", "r2", "w", "R", "Lambda", "caging_area", "n_caged",
-                "n_tip_prehension", "n_tied"]
+                "n_tip_prehension", "n_caged_points", "n_caged_crossed", "n_tied"]
 CT_COLUMNS = ["r", "mu", "l1", "l2", "r1", "r2", "w", "n_caged", "n_tip_prehension", "Lambda"]
 REP_COLUMNS = ["r", "mu", "kind", "l1", "l2", "r1", "r2", "w", "R", "n_caged",
                "n_tip_prehension", "Lambda"]
@@ -346,7 +347,8 @@ def best_caging_figure(st: StoreData, rows: list[dict], log) -> Figure:
         draw_map_panel(axes[mi, ri], m, title=title, colorbar_label="energy V (unitless)")
     fig.suptitle("Best caging design of each part (largest Λ; columns: part radius r, rows: "
                  "friction μ)\nColour: energy V, each panel its own scale; white hatching: part "
-                 "in equilibrium; pink outline: caged region; greys and tan: outside P_j (not reached); "
+                 "in equilibrium; pink outline: caged region; greys and tan: outside P_j "
+                 "(not reached); "
                  "gripper and part drawn to scale at a representative caged pose; "
                  f"{NOTE_UNITLESS}", fontsize=11)
     return fig
@@ -620,10 +622,14 @@ def reading(st: StoreData, rep: Report) -> list[str]:
     out.append(f"- Caging: the best Λ over the {len(best)} parts ranges from {fmt(lo['Lambda'])} "
                f"({_part(lo)}) to {fmt(hi['Lambda'])} ({_part(hi)}). The best designs use "
                f"transmission ratio R = r2/r1 with {_spread(r['R'] for r in best)} and palm "
-               f"width w with {_spread(r['w'] for r in best)}. Ties for the best Λ (at {TIE_DIGITS} "
+               f"width w with {_spread(r['w'] for r in best)}. Ties for the best Λ (at "
+               f"{TIE_DIGITS} "
                "significant digits): "
                f"{sum(r['n_tied'] > 1 for r in best)} of {len(best)} parts have more than one "
-               f"best design (at most {max(r['n_tied'] for r in best)}).")
+               f"best design (at most {max(r['n_tied'] for r in best)}). Caged points with "
+               "crossed fingers (the base model lets fingers pass through each other) in the "
+               f"best designs: {sum(r['n_caged_crossed'] for r in best)} of "
+               f"{sum(r['n_caged_points'] for r in best)} caged points over all parts.")
     zero = [r for r in best if not r["Lambda"] > 0]
     if zero:
         out.append(f"- {len(zero)} part(s) have no design with a positive Λ: "
@@ -666,6 +672,13 @@ def reading(st: StoreData, rep: Report) -> list[str]:
         f"A = {fmt(sum_a)} and B = {fmt(sum_b)}. Of B's total, {fmt(crossed)} "
         f"({fmt(100 * crossed / sum_b if sum_b > 0 else float('nan'))} %) comes from poses "
         "with crossed fingers (the base model lets fingers pass through each other).")
+    for who in ("A", "B"):
+        won = [r for r in rows if r["winner"] == who]
+        if won:
+            rs = ", ".join(sorted(set(fmt(r["r"]) for r in won), key=float))
+            mus = ", ".join(sorted(set(fmt(r["mu"]) for r in won), key=float))
+            out.append(f"- {who} wins on {len(won)} parts, with r in {{{rs}}} and mu in "
+                       f"{{{mus}}}: " + "; ".join(_part(r) for r in won) + ".")
     b_by_r = {}
     for r in rows:
         b_by_r.setdefault(r["r"], []).append(r["b"])
@@ -694,7 +707,8 @@ def comparison(st: StoreData, rep: Report) -> list[str]:
     claims in the abstract; it has no tables of results to compare with)."""
     a = st.attrs
     out = [f"- Run time: the paper computed its 86,400 maps in about 10 hours on 256 cores; this "
-           f"store's {int(a.get('n_maps', 0)):,} maps took {fmt(a.get('compute_seconds', math.nan))}"
+           f"store's {int(a.get('n_maps', 0)):,} maps took "
+           f"{fmt(a.get('compute_seconds', math.nan))}"
            f" s of compute ({fmt(a.get('wall_seconds', math.nan))} s wall) on "
            f"{a.get('threads', '?')} thread(s)."]
     best = rep.best
@@ -725,7 +739,10 @@ def comparison(st: StoreData, rep: Report) -> list[str]:
                 "- The paper (abstract): \"a variable palm width is needed to manipulate parts "
                 f"of varying scales\". Here w's mean usage is {fmt(mean[0])}, rank {rank} of 5 "
                 "parameters" + (" (the most used), in line with the claim."
-                                if rank == 1 else "; other parameters are used more."))
+                                if rank == 1 else "; used more: " + ", ".join(
+                                    f"{PARAMETERS[i]} ({fmt(mean[i])})"
+                                    for i in np.argsort(-mean, kind="stable")[:rank - 1])
+                                + "."))
         rows = rep.manipulation
         n_b = sum(r["winner"] == "B" for r in rows)
         out.append(
@@ -759,7 +776,8 @@ def markdown(st: StoreData, rep: Report) -> str:
           f"{fmt(sc.accuracy.root_tol)}, trajectory {sc.accuracy.trajectory}",
           f"- Effects on: {a.get('effects_on')}",
           f"- Maps: {int(a.get('n_maps', 0)):,}; run time: compute "
-          f"{fmt(a.get('compute_seconds', math.nan))} s, wall {fmt(a.get('wall_seconds', math.nan))}"
+          f"{fmt(a.get('compute_seconds', math.nan))} s, wall "
+          f"{fmt(a.get('wall_seconds', math.nan))}"
           f" s, {a.get('threads', '?')} thread(s)",
           f"- Manipulation metric: "
           + (f"yes; Scenario A top-k = {rep.top_k} (store attribute "
@@ -788,7 +806,8 @@ def markdown(st: StoreData, rep: Report) -> str:
         L += ["- Scenario A candidates: the (l1, l2, r1, r2) of the top-k caging designs (by Λ, "
               "store order among ties) of every part, duplicates merged. Best candidate: the "
               "largest Scenario A metric summed over all parts (first in store order among "
-              f"ties; both compared at {TIE_DIGITS} significant digits). Per part, the scenario with the larger metric wins; equal metrics are a "
+              f"ties; both compared at {TIE_DIGITS} significant digits). Per part, the "
+              "scenario with the larger metric wins; equal metrics are a "
               "tie.",
               "- Per-pose maps: the part with the largest min(A, B) of the best candidate's A "
               "and B, so that both maps show something (first in table order among ties)."]

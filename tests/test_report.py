@@ -1,4 +1,5 @@
-"""`sweep report`: the paper's experiments from a store (tiny sweep of tests/data/manipulation.yaml).
+"""`sweep report`: the paper's experiments from a store (the tiny sweep of
+tests/data/manipulation.yaml).
 
 Every expected number is recomputed here from the store with xarray and plain Python (loops over
 the coordinates), not with sweep.report's own selection code.
@@ -98,6 +99,7 @@ def test_best_caging_table_is_the_first_largest_lambda(made):
         assert row["caging_area"] == g(value(ds, "caging_area", best, r, mu))
         assert int(row["n_caged"]) == value(ds, "n_caged", best, r, mu)
         assert int(row["n_tip_prehension"]) == value(ds, "n_tip_prehension", best, r, mu)
+        assert int(row["n_caged_crossed"]) == value(ds, "n_caged_crossed", best, r, mu)
         assert int(row["n_tied"]) == ties
 
 
