@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run test lint test-slurm bench paper clean
+.PHONY: install run map test lint test-slurm bench paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -14,8 +14,14 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# The main job on its default config: one energy map of the issue's reference design, with its plot.
+# The main job: the paper's sweep with the manipulation metric (86,400 maps; resumes if killed,
+# a no-op when complete), then its report (figures, tables, report.md; a no-op when up to date).
 run: $(STAMP)
+	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
+	$(VENV)/bin/sweep report results/paper.h5 --out results/
+
+# One energy map of the issue's reference design, with its plot.
+map: $(STAMP)
 	$(VENV)/bin/sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 \
 		--out results/map.h5 --plot results/map.png --overwrite
 

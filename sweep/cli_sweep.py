@@ -1,4 +1,4 @@
-"""Sweep commands of the CLI: run, slurm, status, merge, top, show.
+"""Sweep commands of the CLI: run, slurm, status, merge, top, show, report.
 
 Each command is declared once, here, as a click command (`COMMANDS`); `register(group)` adds them
 to a group (`sweep.cli.main` does so). Each is a thin layer over `sweep.scene`, `sweep.runner`,
@@ -509,8 +509,68 @@ def _n_items(b) -> str:
         return "?"
 
 
+@click.command("report", cls=SweepCommand,
+               short_help="The paper's experiments from a results store: figures, tables.")
+@click.argument("store", type=FILE)
+@click.option("--out", type=PATH, required=True, help="Directory for the report's files.")
+@click.option("--top-k", type=int, default=None,
+              help="Scenario A candidates per part [default: the store's "
+                   "manipulation_scenario_a_top_k].")
+@click.option("--overwrite", is_flag=True,
+              help="Replace a report in DIR made from another store.")
+@WAIT
+def report(store, out, top_k, overwrite, wait):
+    """Turn a results store into the paper's four experiments: best_caging.png,
+    caging_vs_tip.png, manipulation.png, parameter_usage.png, their tables as CSV, and
+    report.md (tables, rules, settings, run time, a reading).
+
+    \b
+    sweep report results/paper.h5 --out results/
+
+    Rerunning on the same store with the same settings is a no-op; a stale report of the same
+    store is redone; a report of another store in DIR needs --overwrite. A store without the
+    manipulation metric (config option `outputs: {manipulation: true}`) gets the caging parts
+    only, with a note in report.md.
+    """
+    import json
+
+    from .outputs import OutputLock, make_parent
+    from .report import ALL_FILES, MARKER, build_report, identity, open_store, resolve_top_k
+
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out: {out} is a file; it names the report's directory")
+    st = open_store(store)
+    top_k = resolve_top_k(st, top_k)
+    make_parent(out / MARKER)
+    with OutputLock(out / MARKER, what=f"the report in {out}").acquire(wait=wait):
+        wanted = identity(st, top_k)
+        try:
+            found = json.loads((out / MARKER).read_text())
+        except (OSError, ValueError):
+            found = None
+        same = found is not None and all(found.get(k) == v for k, v in wanted.items())
+        if same and not overwrite and found.get("complete") and all(
+                (out / name).exists() for name in found.get("files", [])):
+            click.echo(f"{out}: report of {store} is already complete; nothing to do")
+            return
+        present = [name for name in ALL_FILES if (out / name).exists()]
+        # Like `sweep run`: the report of this store (same file, same config) is redone when
+        # stale (store rewritten, other --top-k); a report of another store needs --overwrite.
+        ours = found is not None and all(found.get(k) == wanted[k]
+                                         for k in ("store", "config_hash"))
+        if present and found is not None and not ours and not overwrite:
+            raise UserError(f"--out: {out} holds the report of another store "
+                            f"({found.get('store')}); pass --overwrite to replace it")
+        if present and found is None and not overwrite:
+            raise UserError(f"--out: {out} already holds {present[0]}; pass --overwrite to "
+                            "replace it")
+        build_report(store, out, top_k,
+                     log=lambda msg: click.echo(f"report: {msg}", err=True), st=st)
+    click.echo(f"wrote the report of {store} to {out}/ (report.md and its figures and tables)")
+
+
 # ---------------------------------------------------------------------------------------------
-COMMANDS = (run, slurm_command, status, merge, top, show)
+COMMANDS = (run, slurm_command, status, merge, top, show, report)
 
 
 def register(group: click.Group) -> None:

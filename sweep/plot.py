@@ -210,8 +210,10 @@ def _title(m) -> tuple[str, str]:
     return title, line1 + "\n" + line2
 
 
-def draw_map(m) -> Figure:
-    """The figure of one energy map (not saved)."""
+def _map_view(m) -> dict:
+    """What a picture of map `m` needs before anything is drawn: the point sets, where every
+    trajectory ends, the gripper's representative pose and the plot limits (the whole gripper
+    is always inside them)."""
     energy = np.asarray(m.fields["energy"], dtype=np.float64)
     point_class = np.asarray(m.fields["point_class"])
     equilibrium = np.asarray(m.fields["equilibrium"], dtype=bool)
@@ -229,9 +231,7 @@ def draw_map(m) -> Figure:
     start_mask = reached.ravel()
     end_count = np.bincount(ends[start_mask], minlength=ny * nx).astype(float)
     moving = reached & ~stable
-    starts = sample_starts(reached, moving, TARGET_TRAJECTORIES)
 
-    # The gripper's pose decides the limits too: the whole gripper is always in the picture.
     d = m.design
     p, why = representative_point(m, stable, caged, end_count)
     pose = gripper_pose(m, p) if p >= 0 else None
@@ -241,15 +241,22 @@ def draw_map(m) -> Figure:
         bx0, bx1, by0, by1 = pose["box"]
         xlo, xhi, ylo, yhi = min(xlo, bx0), max(xhi, bx1), min(ylo, by0), max(yhi, by1)
     pad = 0.02 * max(xhi - xlo, yhi - ylo, 1e-9)
-    xlo, xhi, ylo, yhi = xlo - pad, xhi + pad, ylo - pad, yhi + pad
-    aspect = (yhi - ylo) / max(xhi - xlo, 1e-9)
-    # Inches: the axes at most 10.2 x 10, plus the colorbar (right), title and legend.
-    axes_width = min(10.2, 10.0 / max(aspect, 1e-9))
-    width = max(axes_width + 1.8, 10.0)
-    height = max(axes_width * aspect, 2.5) + 2.2
-    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot()
+    limits = (xlo - pad, xhi + pad, ylo - pad, yhi + pad)
+    return dict(energy=energy, point_class=point_class, ny=ny, nx=nx, h=h, x=x, y=y, xe=xe,
+                ye=ye, reached=reached, stable=stable, caged=caged, ends=ends,
+                end_count=end_count, moving=moving, pose=pose, why=why, limits=limits)
+
+
+def _draw_layers(ax, m, v: dict, trajectories: bool = True) -> tuple:
+    """Draw map `m` (view `v` from `_map_view`) into `ax`: energy colour, greyed points outside
+    P_j, equilibrium hatching, caged outline, the gripper to scale; with `trajectories`, also
+    the downhill paths and their end points. Returns the energy mesh (for a colour bar) and the
+    legend handles."""
+    energy, point_class = v["energy"], v["point_class"]
+    ny, nx, h, x, y, xe, ye = v["ny"], v["nx"], v["h"], v["x"], v["y"], v["xe"], v["ye"]
+    reached, stable, caged, moving = v["reached"], v["stable"], v["caged"], v["moving"]
+    ends, end_count, pose, why = v["ends"], v["end_count"], v["pose"], v["why"]
+    d = m.design
     ax.set_facecolor("white")
 
     # Energy colour over every feasible point; the norm follows P_j when it exists.
@@ -308,7 +315,29 @@ def draw_map(m) -> Figure:
         handles.append(Line2D([], [], color="#ff2d7a", lw=1.6,
                               label=f"caged region: {int(caged.sum())}"))
 
-    # Downhill trajectories.
+    if trajectories:
+        handles += _draw_trajectories(ax, v)
+
+    # The gripper to scale in one representative pose.
+    if pose is not None:
+        _draw_gripper(ax, m, pose)
+        handles.append(Line2D([], [], color=FINGER_COLOURS[1], lw=3.2,
+                              label=f"gripper to scale, part at ({pose['x']:.2f}, "
+                                    f"{pose['y']:.2f}): {why}"))
+    else:
+        ax.plot([-0.5 * d.w, 0.5 * d.w], [0, 0], color="#222222", lw=5)
+    return mesh, handles
+
+
+def _draw_trajectories(ax, v: dict) -> list:
+    """Downhill trajectories from a sparse lattice of moving starts, and the end points of all
+    moving trajectories of P_j sized by how many points end there; returns legend handles."""
+    energy, point_class = v["energy"], v["point_class"]
+    ny, nx, h, x, y = v["ny"], v["nx"], v["h"], v["x"], v["y"]
+    reached, stable, caged, moving = v["reached"], v["stable"], v["caged"], v["moving"]
+    ends, end_count = v["ends"], v["end_count"]
+    starts = sample_starts(reached, moving, TARGET_TRAJECTORIES)
+    handles = []
     flat_x = np.broadcast_to(x[None, :], (ny, nx)).ravel()
     flat_y = np.broadcast_to(y[:, None], (ny, nx)).ravel()
     segments = []
@@ -355,15 +384,22 @@ def draw_map(m) -> Figure:
                    linewidths=0.7, zorder=7)
         handles.append(Line2D([], [], ls="none", marker=marker, ms=7, mfc=face, mec=edge,
                               label=f"{label}: {idx.size} (size ~ √points ending there)"))
+    return handles
 
-    # The gripper to scale in one representative pose.
-    if pose is not None:
-        _draw_gripper(ax, m, pose)
-        handles.append(Line2D([], [], color=FINGER_COLOURS[1], lw=3.2,
-                              label=f"gripper to scale, part at ({pose['x']:.2f}, "
-                                    f"{pose['y']:.2f}): {why}"))
-    else:
-        ax.plot([-0.5 * d.w, 0.5 * d.w], [0, 0], color="#222222", lw=5)
+
+def draw_map(m) -> Figure:
+    """The figure of one energy map (not saved)."""
+    v = _map_view(m)
+    xlo, xhi, ylo, yhi = v["limits"]
+    aspect = (yhi - ylo) / max(xhi - xlo, 1e-9)
+    # Inches: the axes at most 10.2 x 10, plus the colorbar (right), title and legend.
+    axes_width = min(10.2, 10.0 / max(aspect, 1e-9))
+    width = max(axes_width + 1.8, 10.0)
+    height = max(axes_width * aspect, 2.5) + 2.2
+    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    mesh, handles = _draw_layers(ax, m, v, trajectories=True)
 
     ax.set_xlim(xlo, xhi)
     ax.set_ylim(ylo, yhi)
@@ -378,6 +414,29 @@ def draw_map(m) -> Figure:
     fig.legend(handles=handles, loc="outside lower center", ncol=ncol, fontsize=8.5,
                frameon=True, facecolor="#f4f4f4")
     return fig
+
+
+def draw_map_panel(ax, m, title: str | None = None, colorbar_label: str | None =
+                   "energy V (unitless)", fontsize: float = 7.0):
+    """Draw map `m` into the given Axes as one panel of a larger figure: energy colour with its
+    own colour bar, equilibrium hatching, caged outline and the gripper to scale at the
+    representative pose (no trajectories, no legend). Returns the energy mesh."""
+    v = _map_view(m)
+    mesh, _ = _draw_layers(ax, m, v, trajectories=False)
+    xlo, xhi, ylo, yhi = v["limits"]
+    ax.set_xlim(xlo, xhi)
+    ax.set_ylim(ylo, yhi)
+    ax.set_aspect("equal")
+    ax.tick_params(labelsize=fontsize)
+    ax.set_xlabel("part centre x", fontsize=fontsize)
+    ax.set_ylabel("part centre y", fontsize=fontsize)
+    if colorbar_label is not None:
+        cb = ax.figure.colorbar(mesh, ax=ax, shrink=0.85, pad=0.02, aspect=25)
+        cb.set_label(colorbar_label, fontsize=fontsize)
+        cb.ax.tick_params(labelsize=fontsize)
+    if title:
+        ax.set_title(title, fontsize=fontsize)
+    return mesh
 
 
 def plot_map(m, path) -> Path:
