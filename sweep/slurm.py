@@ -3,8 +3,8 @@
 `sbatch_script` and `merge_script` are pure functions of their inputs (golden-file tested).
 Array task ``i`` runs ``sweep run CONFIG --out DIR --chunks N``; `sweep run` reads the chunk index
 from ``SLURM_ARRAY_TASK_ID`` and its thread count from ``SLURM_CPUS_PER_TASK``. Logs go to
-``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` once every array
-task has succeeded; `submit` hands a script file to ``sbatch`` and returns the job id.
+``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` and ``sweep report``
+once every array task has succeeded; `submit` hands a script file to ``sbatch`` and returns the job id.
 """
 from __future__ import annotations
 
@@ -68,10 +68,17 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
     return "\n".join(lines)
 
 
+def report_dir(results: str) -> str:
+    """Where the merge job writes the report of the store `results`: beside it, `NAME_report`."""
+    path = Path(results)
+    return str(path.with_name(path.stem + "_report"))
+
+
 def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
                  time: str = "01:00:00", partition: str | None = None,
                  account: str | None = None, extra: Mapping[str, str] | None = None) -> str:
-    """Text of the sbatch script that merges the shards of `out_dir` into the store `results`.
+    """Text of the sbatch script that merges the shards of `out_dir` into the store `results`
+    and writes its report (`report_dir(results)`).
 
     It is submitted with ``--dependency=afterok:<array job id>`` (the id is known only then), so
     it runs once, after every array task succeeded. One core: the merge only copies arrays.
@@ -97,8 +104,8 @@ def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = 
         "# Runs after every array task succeeded (submitted with --dependency=afterok:ARRAY_ID).",
         "set -euo pipefail",
         f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)}",
-        "# REPORT HOOK: when `sweep report` exists, write the report of the merged store here,",
-        f"# e.g.  {sweep_cmd} report {shlex.quote(results)}",
+        "# The report of the merged store: figures, tables, report.md (see `sweep report --help`).",
+        f"{sweep_cmd} report {shlex.quote(results)} --out {shlex.quote(report_dir(results))}",
         "",
     ]
     return "\n".join(lines)

@@ -6,7 +6,8 @@ installed if missing) runs configs/small.yaml as 4 array tasks:
   `sweep run` of the same config: every dataset bit for bit, every attribute but timings;
 - one task, stopped once it has written a sub-chunk, is cancelled with `scancel JOB_I`; the
   index resubmitted alone resumes from the kept sub-chunks; the merge is still identical;
-- `sweep slurm --submit` submits the array plus a merge job (afterok) that writes the same store.
+- `sweep slurm --submit` submits the array plus a merge job (afterok) that writes the same store
+  and its report.
 The cluster's daemons are stopped by pid and its directory removed, pass or fail. If SLURM cannot
 be installed or started, the test fails with the daemon's name and its log lines.
 """
@@ -322,6 +323,9 @@ def test_submit_runs_the_array_and_the_merge_job(cluster, work, local_store):
     ends = [_job_field(cluster, f"{array_id}_{i}", "EndTime") for i in range(N_CHUNKS)]
     assert _job_field(cluster, merge_id, "StartTime") >= max(ends)   # ISO times sort as text
     assert_same_as_local(local_store, out / "results.h5", out)
+    # ... and then wrote the report of the merged store beside it
+    assert (out / "results_report" / "report.md").exists(), job_logs(out)
+    assert (out / "results_report" / "best_caging.png").exists()
 
 
 def _job_field(cluster, job_id: str, field: str) -> str:
