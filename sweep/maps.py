@@ -197,7 +197,8 @@ def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
                       distal_normal_force=forces.distal_normal,
                       distal_friction_multiplier=forces.distal_multiplier,
                       resultant_force_x=forces.resultant_x, resultant_force_y=forces.resultant_y,
-                      forces_determined=forces.determined)
+                      forces_determined=forces.determined,
+                      geometric_cage_score=forces.geometric_cage_score)
     assert set(fields) <= set(POINT), set(fields) - set(POINT)
     return fields
 

@@ -108,6 +108,10 @@ POINT_FIELDS = (
     Field("resultant_force_y", "float64", FINGER_DIMS,
           "y component of the finger's resultant force on the part per unit tendon tension",
           "1", output="forces"),
+    Field("geometric_cage_score", "float64", MAP_DIMS,
+          "geometric cage score S_geo = 1 - L_open/(2r) where the part is reached, contained and "
+          "L_open < 2r, else 0, without the stability requirement (MODEL 10)", "1",
+          output="forces"),
     Field("forces_determined", "bool", FINGER_DIMS,
           "the finger's contact forces are fixed by its statics (model-notes D9): static mode, "
           "no contact at a joint, contacts + joints on a limit <= 2", "1", output="forces"),

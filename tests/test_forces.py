@@ -121,11 +121,30 @@ def test_forces_are_per_unit_tension_and_configurations_do_not_depend_on_it():
 @pytest.mark.parametrize("design,part,h", MAPS[:2], ids=["map0", "map1"])
 def test_forces_are_mirror_symmetric(design, part, h):
     f = compute_map(design, part, Command(), Grid(h=h), forces=True).fields
+    s_geo = f["geometric_cage_score"]
+    np.testing.assert_array_equal(s_geo, s_geo[:, ::-1])
     for name in FORCE_FIELDS:
+        if f[name].ndim == 2:
+            continue
         left, right = f[name][0], f[name][1][:, ::-1]
         if name == "resultant_force_x":
             right = -right
         np.testing.assert_array_equal(left, right, err_msg=name)
+
+
+@pytest.mark.parametrize("design,part,h", MAPS[:3], ids=["map0", "map1", "map2"])
+def test_geometric_cage_score_is_the_caging_score_without_stability(design, part, h):
+    """MODEL 10: S_geo = 1 - L_open/(2r) at reached, contained points with L_open < 2r, computed
+    without the stability requirement; where the part is stable it is the caging score."""
+    f = compute_map(design, part, Command(), Grid(h=h), forces=True).fields
+    s_geo = f["geometric_cage_score"]
+    reached = f["point_class"] == 4
+    expect = np.where(reached & f["contained"] & (f["l_open"] < 2 * part.r - 1e-12),
+                      1.0 - f["l_open"] / (2 * part.r), 0.0)
+    np.testing.assert_array_equal(np.where(np.isnan(s_geo), 0.0, s_geo), expect)
+    stable = reached & f["equilibrium"]
+    np.testing.assert_array_equal(np.where(stable, s_geo, 0.0), f["caging_score"])
+    assert (s_geo > 0).any()
 
 
 def test_forces_off_cost_no_output_and_leave_the_rest_unchanged():
