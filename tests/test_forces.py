@@ -144,7 +144,8 @@ def test_geometric_cage_score_is_the_caging_score_without_stability(design, part
     np.testing.assert_array_equal(np.where(np.isnan(s_geo), 0.0, s_geo), expect)
     stable = reached & f["equilibrium"]
     np.testing.assert_array_equal(np.where(stable, s_geo, 0.0), f["caging_score"])
-    assert (s_geo > 0).any()
+    if design == MAPS[0][0]:  # the reference map has poses the manipulation metric can count
+        assert (s_geo[reached & ~f["equilibrium"]] > 0).any()
 
 
 def test_forces_off_cost_no_output_and_leave_the_rest_unchanged():
