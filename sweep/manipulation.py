@@ -200,35 +200,6 @@ class HullReduction:
         out.n_kept[:] = n_kept
         return out
 
-    def add_rows(self, pose, rows, rows_first) -> None:
-        """Add points given as full state rows (x, y, parameter minima, maxima; `rows_first`
-        their smallest geometry index), point e at pose[e] of this reduction. Order-independent
-        like `add`; merging reductions is adding their kept rows."""
-        pose = np.asarray(pose, dtype=np.int64)
-        order = np.argsort(pose, kind="stable")
-        pose = pose[order]
-        rows = np.ascontiguousarray(np.asarray(rows, dtype=np.float64)[order])
-        rows_first = np.ascontiguousarray(np.asarray(rows_first, dtype=np.int64)[order])
-        if pose.size and (pose[0] < 0 or pose[-1] >= self.n_poses):
-            raise ValueError("point pose outside the reduction")
-        if not np.isfinite(rows[:, :2]).all():
-            raise ValueError("a counted force is not finite")
-        seg_start = np.searchsorted(pose, np.arange(self.n_poses + 1), side="left")
-        done = np.zeros(self.n_poses, dtype=np.int64)
-        status = np.zeros(self.n_poses, dtype=np.int64)
-        while True:
-            _hull.reduction_add_entries(self.points, self.first, self.n_hull, self.n_kept,
-                                        seg_start, rows, rows_first, done, status, _n_blocks())
-            if not (status == _hull.STATUS_OVERFLOW).any():
-                return
-            self._grow(2 * self.capacity)
-
-    def kept_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(pose of each kept row, rows (K, 12), smallest geometry index (K,)), pose-major."""
-        keep = np.arange(self.capacity)[None, :] < self.n_kept[:, None]
-        pose = np.broadcast_to(np.arange(self.n_poses)[:, None], keep.shape)[keep]
-        return pose, self.points[keep], self.first[keep]
-
 
 # ---------------------------------------------------------------------------------------------
 # Sparse per-part reductions and the manipulation data of a chunk of work items

@@ -253,9 +253,9 @@ def _draw_layers(ax, m, v: dict, trajectories: bool = True) -> tuple:
     the downhill paths and their end points. Returns the energy mesh (for a colour bar) and the
     legend handles."""
     energy, point_class = v["energy"], v["point_class"]
-    ny, nx, h, x, y, xe, ye = v["ny"], v["nx"], v["h"], v["x"], v["y"], v["xe"], v["ye"]
-    reached, stable, caged, moving = v["reached"], v["stable"], v["caged"], v["moving"]
-    ends, end_count, pose, why = v["ends"], v["end_count"], v["pose"], v["why"]
+    ny, nx, x, y, xe, ye = v["ny"], v["nx"], v["x"], v["y"], v["xe"], v["ye"]
+    reached, stable, caged = v["reached"], v["stable"], v["caged"]
+    pose, why = v["pose"], v["why"]
     d = m.design
     ax.set_facecolor("white")
 

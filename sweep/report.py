@@ -765,7 +765,7 @@ def markdown(st: StoreData, rep: Report) -> str:
     L.append("")
     L.append("## Settings")
     L.append("")
-    L += [f"- Designs: " + "; ".join(f"{d} = {', '.join(fmt(v) for v in st.ds[d].values)}"
+    L += ["- Designs: " + "; ".join(f"{d} = {', '.join(fmt(v) for v in st.ds[d].values)}"
                                      for d in DESIGN_DIMS),
           f"- Parts: r = {', '.join(fmt(v) for v in st.r)}; mu = "
           f"{', '.join(fmt(v) for v in st.mu)}",
@@ -779,7 +779,7 @@ def markdown(st: StoreData, rep: Report) -> str:
           f"{fmt(a.get('compute_seconds', math.nan))} s, wall "
           f"{fmt(a.get('wall_seconds', math.nan))}"
           f" s, {a.get('threads', '?')} thread(s)",
-          f"- Manipulation metric: "
+          "- Manipulation metric: "
           + (f"yes; Scenario A top-k = {rep.top_k} (store attribute "
              f"manipulation_scenario_a_top_k = {a.get('manipulation_scenario_a_top_k')})"
              if st.manipulation else

@@ -3,8 +3,9 @@
 `sbatch_script` and `merge_script` are pure functions of their inputs (golden-file tested).
 Array task ``i`` runs ``sweep run CONFIG --out DIR --chunks N``; `sweep run` reads the chunk index
 from ``SLURM_ARRAY_TASK_ID`` and its thread count from ``SLURM_CPUS_PER_TASK``. Logs go to
-``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` and ``sweep report``
-once every array task has succeeded; `submit` hands a script file to ``sbatch`` and returns the job id.
+``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` and
+``sweep report`` once every array task has succeeded; `submit` hands a script file to ``sbatch``
+and returns the job id.
 """
 from __future__ import annotations
 
@@ -41,14 +42,7 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
     }
     if mem:
         flags["mem"] = mem
-    if partition:
-        flags["partition"] = partition
-    if account:
-        flags["account"] = account
-    for k, v in (extra or {}).items():
-        flags[k.lstrip("-")] = str(v)
-    lines = ["#!/bin/bash"]
-    lines += [f"#SBATCH --{k}={v}" for k, v in sorted(flags.items())]
+    lines = _header(flags, partition, account, extra)
     lines.append("")
     about = f"# {n_chunks} chunks" + (f" of a {n_maps:,}-map sweep" if n_maps else "")
     if config_hash:
@@ -66,6 +60,19 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
         "",
     ]
     return "\n".join(lines)
+
+
+def _header(flags: dict, partition: str | None, account: str | None,
+            extra: Mapping[str, str] | None) -> list[str]:
+    """The shebang and the #SBATCH lines, sorted (one place for both scripts)."""
+    flags = dict(flags)
+    if partition:
+        flags["partition"] = partition
+    if account:
+        flags["account"] = account
+    for k, v in (extra or {}).items():
+        flags[k.lstrip("-")] = str(v)
+    return ["#!/bin/bash"] + [f"#SBATCH --{k}={v}" for k, v in sorted(flags.items())]
 
 
 def report_dir(results: str) -> str:
@@ -91,14 +98,7 @@ def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = 
         "output": f"{out_dir}/logs/merge_%j.out",
         "time": time,
     }
-    if partition:
-        flags["partition"] = partition
-    if account:
-        flags["account"] = account
-    for k, v in (extra or {}).items():
-        flags[k.lstrip("-")] = str(v)
-    lines = ["#!/bin/bash"]
-    lines += [f"#SBATCH --{k}={v}" for k, v in sorted(flags.items())]
+    lines = _header(flags, partition, account, extra)
     lines += [
         "",
         "# Runs after every array task succeeded (submitted with --dependency=afterok:ARRAY_ID).",

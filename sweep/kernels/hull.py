@@ -395,6 +395,14 @@ def _add_point(row, row_first, nh, nk, point, point_first, cand, cand_first, uni
 
 
 @njit(cache=True)
+def _scratch(m):
+    """Working arrays of `_rebuild` for up to m candidate rows (one set per block of poses)."""
+    return (np.empty((m, N_COLS)), np.empty(m, dtype=np.int64), np.empty((m, N_COLS)),
+            np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64),
+            np.empty(2 * m + 1, dtype=np.int64), np.empty(m, dtype=np.bool_), np.empty(16))
+
+
+@njit(cache=True)
 def _blocks(n_items, n_blocks):
     """Contiguous pose blocks for prange (each block allocates its scratch once). n_blocks comes
     from the caller: numba.get_num_threads() inside a kernel would defeat the disk cache."""
@@ -415,14 +423,7 @@ def reduction_add(pts, first, n_hull, n_kept, fx, fy, counts, geometry_index, pa
         lo = b * n_poses // n_blocks
         hi = (b + 1) * n_poses // n_blocks
         m = cap + 1
-        cand = np.empty((m, N_COLS))
-        cand_first = np.empty(m, dtype=np.int64)
-        uniq = np.empty((m, N_COLS))
-        uniq_first = np.empty(m, dtype=np.int64)
-        order = np.empty(m, dtype=np.int64)
-        chain = np.empty(2 * m + 1, dtype=np.int64)
-        is_vertex = np.empty(m, dtype=np.bool_)
-        expansion = np.empty(16)
+        cand, cand_first, uniq, uniq_first, order, chain, is_vertex, expansion = _scratch(m)
         point = np.empty((1, N_COLS))
         point_first = np.empty(1, dtype=np.int64)
         for c in range(N_PARAMS):
@@ -460,14 +461,7 @@ def reduction_merge(pts_a, first_a, n_kept_a, pts_b, first_b, n_kept_b,
     for b in prange(n_blocks):
         lo = b * n_poses // n_blocks
         hi = (b + 1) * n_poses // n_blocks
-        cand = np.empty((m, N_COLS))
-        cand_first = np.empty(m, dtype=np.int64)
-        uniq = np.empty((m, N_COLS))
-        uniq_first = np.empty(m, dtype=np.int64)
-        order = np.empty(m, dtype=np.int64)
-        chain = np.empty(2 * m + 1, dtype=np.int64)
-        is_vertex = np.empty(m, dtype=np.bool_)
-        expansion = np.empty(16)
+        cand, cand_first, uniq, uniq_first, order, chain, is_vertex, expansion = _scratch(m)
         for pose in range(lo, hi):
             status[pose] = STATUS_OK
             n = 0
@@ -552,56 +546,6 @@ def reduction_parameter_ranges(pts, first, n_hull, n_kept, values, ranges, n_blo
 
 
 @njit(cache=True, parallel=True)
-def reduction_add_entries(pts, first, n_hull, n_kept, seg_start, rows, rows_first, done, status,
-                          n_blocks):
-    """Add a batch of points sorted by pose: pose p's points are rows seg_start[p] ..
-    seg_start[p+1]-1 (each a full state row: x, y, parameter minima and maxima, with its
-    smallest geometry index in rows_first). Raw forces have minima = maxima; rows of another
-    reduction carry their aggregated ranges, so merging many reductions is adding their rows.
-
-    done[p] counts the points of pose p already added; on overflow the pose keeps what it has,
-    status[p] = STATUS_OVERFLOW, and a call with grown arrays resumes at done[p]. Non-finite
-    forces are skipped (STATUS_NONFINITE). Poses are independent: blocks of poses in parallel."""
-    n_poses, cap = pts.shape[0], pts.shape[1]
-    n_blocks = _blocks(n_poses, n_blocks)
-    for b in prange(n_blocks):
-        lo = b * n_poses // n_blocks
-        hi = (b + 1) * n_poses // n_blocks
-        m = cap + 1
-        cand = np.empty((m, N_COLS))
-        cand_first = np.empty(m, dtype=np.int64)
-        uniq = np.empty((m, N_COLS))
-        uniq_first = np.empty(m, dtype=np.int64)
-        order = np.empty(m, dtype=np.int64)
-        chain = np.empty(2 * m + 1, dtype=np.int64)
-        is_vertex = np.empty(m, dtype=np.bool_)
-        expansion = np.empty(16)
-        point = np.empty((1, N_COLS))
-        point_first = np.empty(1, dtype=np.int64)
-        for pose in range(lo, hi):
-            status[pose] = STATUS_OK
-            for e in range(seg_start[pose] + done[pose], seg_start[pose + 1]):
-                if not (math.isfinite(rows[e, X]) and math.isfinite(rows[e, Y])):
-                    status[pose] = STATUS_NONFINITE
-                    done[pose] += 1
-                    continue
-                for col in range(N_COLS):
-                    point[0, col] = rows[e, col]
-                point[0, X] = rows[e, X] + 0.0
-                point[0, Y] = rows[e, Y] + 0.0
-                point_first[0] = rows_first[e]
-                nh, nk = _add_point(pts[pose], first[pose], n_hull[pose], n_kept[pose], point,
-                                    point_first, cand, cand_first, uniq, uniq_first, order, chain,
-                                    is_vertex, expansion)
-                if nh < 0:
-                    status[pose] = STATUS_OVERFLOW
-                    break
-                n_hull[pose] = nh
-                n_kept[pose] = nk
-                done[pose] += 1
-
-
-@njit(cache=True, parallel=True)
 def reduction_rebuild_ragged(seg_start, rows, rows_first, out_rows, out_first, out_hull,
                              out_kept, n_blocks):
     """The canonical state of every pose from all its candidate points at once (one `_rebuild`
@@ -619,14 +563,7 @@ def reduction_rebuild_ragged(seg_start, rows, rows_first, out_rows, out_first, o
     for b in prange(n_blocks):
         lo = b * n_poses // n_blocks
         hi = (b + 1) * n_poses // n_blocks
-        cand = np.empty((m, N_COLS))
-        cand_first = np.empty(m, dtype=np.int64)
-        uniq = np.empty((m, N_COLS))
-        uniq_first = np.empty(m, dtype=np.int64)
-        order = np.empty(m, dtype=np.int64)
-        chain = np.empty(2 * m + 1, dtype=np.int64)
-        is_vertex = np.empty(m, dtype=np.bool_)
-        expansion = np.empty(16)
+        cand, cand_first, uniq, uniq_first, order, chain, is_vertex, expansion = _scratch(m)
         for pose in range(lo, hi):
             a = seg_start[pose]
             n = seg_start[pose + 1] - a
