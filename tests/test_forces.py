@@ -263,3 +263,34 @@ def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s
 
     finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)
     assert sticks_on_lower_stop(k2, t2, finger) == lower_stop_admissible(t2, k2, l1, r1, r2, mu_s)
+
+
+def test_forces_match_the_linear_programme_of_the_slow_reference():
+    """Per finger and point, the kernel's resultant equals the independent LP statics of
+    tests/naive_manipulation.py (least total tangential force, stop torques of admissible sign)
+    given the same configuration, and both decide `determined` alike (model-notes D9)."""
+    from naive_manipulation import finger_forces
+
+    design, part, h = MAPS[0]
+    f = compute_map(design, part, Command(), Grid(h=h), forces=True).fields
+    rng = np.random.default_rng(7)
+    feasible = np.argwhere(f["point_class"] >= 1)
+    picks = feasible[rng.choice(len(feasible), size=150, replace=False)]
+    compared = 0
+    for j, i in picks:
+        for side in range(2):
+            mode = int(f["finger_mode"][side, j, i])
+            if mode not in (FREE, PROXIMAL_ONLY, TWO_PHALANX, DISTAL_ONLY):
+                continue
+            res = {k: float(f[name][side, j, i]) for k, name in
+                   (("t1", "theta1"), ("t2", "theta2"), ("k1", "k1"), ("k2", "k2"))}
+            res["mode"] = mode
+            ref = finger_forces(res, design.l1, design.r1, design.r2, part.mu)
+            assert bool(f["forces_determined"][side, j, i]) == ref["determined"], (j, i, side)
+            if not (ref["determined"] and ref["admissible"] and ref["unique"]):
+                continue
+            fx = f["resultant_force_x"][side, j, i] * (1.0 if side == 1 else -1.0)
+            np.testing.assert_allclose([fx, f["resultant_force_y"][side, j, i]], ref["force"],
+                                       rtol=1e-7, atol=1e-9)
+            compared += 1
+    assert compared > 50
