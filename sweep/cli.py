@@ -125,6 +125,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
 
 register_sweep_commands(main)
+__import__("sweep.cli_accuracy").cli_accuracy.register(main)  # sweep accuracy
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -11,7 +11,8 @@ A streamline ends by the discrete method's rules, read at the grid point nearest
 (CAGED or TIP PREHENSION, end point that grid point), not in P_j or off the grid (EJECTION), or
 stalled: the nearest grid point has no strictly lower feasible neighbour, the interpolated
 gradient vanishes, the streamline stays near one grid point for STAY_LIMIT grid steps of travel
-(a minimum of the interpolated energy that is no grid minimum), or the step budget is spent.
+(a minimum of the interpolated energy that is no grid minimum), comes back near grid points it
+had left more than MAX_REVISITS times (circling), or the step budget is spent.
 """
 import math
 
@@ -34,6 +35,9 @@ TRAVERSALS = 4.0
 # minimum of the interpolated energy that is no grid minimum (typically next to an energy jump at
 # a mode boundary): stalled.
 STAY_LIMIT = 4.0
+# A streamline that comes back near grid points it had left more than this many times circles
+# a region with no grid minimum in it: stalled.
+MAX_REVISITS = 2
 
 # Neighbour order of the discrete method (its stall test is reused here).
 _DI = (1, 1, 0, -1, -1, -1, 0, 1)
@@ -137,14 +141,18 @@ def descent_direction(energy, point_class, fi, fj):
 
 
 @njit(cache=True)
-def streamline_end(outs, i0, j0, step, max_steps):
-    """(end_state, flat end index) of the streamline started at grid point (j0, i0)."""
+def streamline_end(outs, i0, j0, step, max_steps, visited):
+    """(end_state, flat end index) of the streamline started at grid point (j0, i0).
+    `visited[p]` holds the start's flat index once the streamline has been near grid point p."""
     energy = outs.energy
     point_class = outs.point_class
     ny, nx = energy.shape
     fi = float(i0)
     fj = float(j0)
     last = j0 * nx + i0
+    start = last
+    visited[start] = start
+    revisits = 0
     stay = 0
     for _ in range(max_steps):
         i = int(math.floor(fi + 0.5))
@@ -155,6 +163,12 @@ def streamline_end(outs, i0, j0, step, max_steps):
         stay = stay + 1 if here == last else 0
         if step * stay > STAY_LIMIT:  # circling a minimum of the interpolated energy
             return END_STALLED, last
+        if here != last:
+            if visited[here] == start:  # back near a grid point it had left: circling
+                revisits += 1
+                if revisits > MAX_REVISITS:
+                    return END_STALLED, here
+            visited[here] = start
         last = here
         if point_class[j, i] != REACHED:
             return END_EJECTION, last
@@ -181,8 +195,8 @@ def streamline_end(outs, i0, j0, step, max_steps):
 @njit(cache=True)
 def streamline_ends(outs, h, stack, step):
     """end_state and end_index of the streamline from every point of P_j (integrator step
-    `step` in grid steps); returns Lambda. `h` and `stack` are unused (same signature as
-    field.trajectory_ends)."""
+    `step` in grid steps); returns Lambda. `h` is unused (same signature as
+    field.trajectory_ends; `stack` holds which start last visited each point)."""
     point_class = outs.point_class
     ny, nx = point_class.shape
     size = ny * nx
@@ -190,13 +204,15 @@ def streamline_ends(outs, h, stack, step):
     for p in range(size):
         outs.end_state.flat[p] = END_NONE
         outs.end_index.flat[p] = -1
+    for p in range(size):
+        stack[p] = -1
     score_sum = 0.0
     for p in range(size):
         j = p // nx
         i = p - j * nx
         if point_class[j, i] != REACHED:
             continue
-        state, last = streamline_end(outs, i, j, step, max_steps)
+        state, last = streamline_end(outs, i, j, step, max_steps, stack)
         outs.end_state.flat[p] = state
         outs.end_index.flat[p] = last
         if state == END_CAGED:
