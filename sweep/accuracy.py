@@ -386,6 +386,7 @@ def plot(study: Study, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.ticker
     import matplotlib.pyplot as plt
 
     rows = [r for r in study.rows if r["axis"] != "reference"]
@@ -402,6 +403,7 @@ def plot(study: Study, path: Path) -> None:
         ax.scatter([rec["seconds_per_map"]], [y], s=250, facecolors="none", edgecolors="red",
                    linewidths=2, label="recommended")
     ax1.set_xscale("log")
+    ax2.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())  # overlapping labels
     ax1.set_yscale("log")
     ax2.set_ylim(-0.05, 1.05)
     ax1.set_ylabel("median caging-area error")
