@@ -144,3 +144,26 @@ def test_discrete_is_the_default_and_unchanged():
     m2 = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2),
                      accuracy=Accuracy(trajectory="discrete"))
     assert np.array_equal(m1.fields["end_index"], m2.fields["end_index"])
+
+
+def test_the_picture_draws_the_streamlines_the_map_ends_with(tmp_path):
+    """For a continuous map the plot walks streamlines (not discrete paths), and each ends near
+    the grid point the map's end_index names."""
+    from sweep.plot import plot_map, streamline_points
+
+    m = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2),
+                    accuracy=Accuracy(trajectory="continuous"))
+    f = m.fields
+    nx = m.x.size
+    h = 0.2
+    starts = np.flatnonzero((f["point_class"] == REACHED).ravel())
+    for p in starts[::7]:
+        pts = streamline_points(int(p), f["energy"], f["point_class"], f["equilibrium"],
+                                f["caging_score"] > 0, m.x, m.y)
+        end = f["end_index"].ravel()[p]
+        j, i = divmod(int(end), nx)
+        if f["end_state"].ravel()[p] != END_EJECTION or 0 < i < nx - 1:
+            assert abs(pts[-1, 0] - m.x[i]) <= 0.5 * h + 1e-9
+            assert abs(pts[-1, 1] - m.y[j]) <= 0.5 * h + 1e-9
+    plot_map(m, tmp_path / "map.png")
+    assert (tmp_path / "map.png").stat().st_size > 0

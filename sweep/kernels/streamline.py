@@ -141,11 +141,12 @@ def descent_direction(energy, point_class, fi, fj):
 
 
 @njit(cache=True)
-def streamline_end(outs, i0, j0, step, max_steps, visited):
-    """(end_state, flat end index) of the streamline started at grid point (j0, i0).
-    `visited[p]` holds the start's flat index once the streamline has been near grid point p."""
-    energy = outs.energy
-    point_class = outs.point_class
+def streamline_walk(energy, point_class, equilibrium, caged, i0, j0, step, max_steps, visited,
+                    path):
+    """(end_state, flat end index, points in `path`) of the streamline started at grid point
+    (j0, i0). `visited[p]` holds the start's flat index once the streamline has been near grid
+    point p. `path` is None, or an array (max_steps + 1, 2) that receives the positions (i, j)
+    in grid units (the picture draws them)."""
     ny, nx = energy.shape
     fi = float(i0)
     fj = float(j0)
@@ -154,31 +155,36 @@ def streamline_end(outs, i0, j0, step, max_steps, visited):
     visited[start] = start
     revisits = 0
     stay = 0
+    n = 0
     for _ in range(max_steps):
+        if path is not None:
+            path[n, 0] = fi
+            path[n, 1] = fj
+        n += 1
         i = int(math.floor(fi + 0.5))
         j = int(math.floor(fj + 0.5))
         if i < 0 or i >= nx or j < 0 or j >= ny:
-            return END_EJECTION, last
+            return END_EJECTION, last, n
         here = j * nx + i
         stay = stay + 1 if here == last else 0
         if step * stay > STAY_LIMIT:  # circling a minimum of the interpolated energy
-            return END_STALLED, last
+            return END_STALLED, last, n
         if here != last:
             if visited[here] == start:  # back near a grid point it had left: circling
                 revisits += 1
                 if revisits > MAX_REVISITS:
-                    return END_STALLED, here
+                    return END_STALLED, here, n
             visited[here] = start
         last = here
         if point_class[j, i] != REACHED:
-            return END_EJECTION, last
-        if outs.equilibrium[j, i]:
-            return (END_CAGED if outs.caged[j, i] else END_TIP_PREHENSION), last
+            return END_EJECTION, last, n
+        if equilibrium[j, i]:
+            return (END_CAGED if caged[j, i] else END_TIP_PREHENSION), last, n
         if not has_lower_neighbour(energy, point_class, i, j):
-            return END_STALLED, last
+            return END_STALLED, last, n
         ui, uj, ok = descent_direction(energy, point_class, fi, fj)
         if not ok:
-            return END_STALLED, last
+            return END_STALLED, last, n
         vi, vj, ok2 = descent_direction(energy, point_class, fi + step * ui, fj + step * uj)
         if ok2:  # Heun: average of the directions at both ends of the Euler step
             si = ui + vi
@@ -189,7 +195,20 @@ def streamline_end(outs, i0, j0, step, max_steps, visited):
                 uj = sj / norm
         fi += step * ui
         fj += step * uj
-    return END_STALLED, last
+    return END_STALLED, last, n
+
+
+@njit(cache=True)
+def streamline_end(outs, i0, j0, step, max_steps, visited):
+    """(end_state, flat end index) of the streamline started at grid point (j0, i0)."""
+    state, last, _ = streamline_walk(outs.energy, outs.point_class, outs.equilibrium, outs.caged,
+                                     i0, j0, step, max_steps, visited, None)
+    return state, last
+
+
+@njit(cache=True)
+def max_streamline_steps(ny, nx, step):
+    return int(TRAVERSALS * (nx + ny) / step) + 1
 
 
 @njit(cache=True)
@@ -200,7 +219,7 @@ def streamline_ends(outs, h, stack, step):
     point_class = outs.point_class
     ny, nx = point_class.shape
     size = ny * nx
-    max_steps = int(TRAVERSALS * (nx + ny) / step) + 1
+    max_steps = max_streamline_steps(ny, nx, step)
     for p in range(size):
         outs.end_state.flat[p] = END_NONE
         outs.end_index.flat[p] = -1
