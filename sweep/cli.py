@@ -14,6 +14,7 @@ import click
 
 from . import __version__
 from .cli_base import SweepGroup, UserError
+from .cli_accuracy import accuracy as accuracy_command
 from .cli_sweep import COMMANDS as SWEEP_COMMANDS
 from .model import Accuracy     # plain dataclasses, no NumPy: cheap to import
 
@@ -123,7 +124,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
             click.echo(f"wrote {plot_path}")
 
 
-for _command in SWEEP_COMMANDS:
+for _command in (*SWEEP_COMMANDS, accuracy_command):
     main.add_command(_command)
 
 

@@ -28,6 +28,7 @@ from .kernels.records import (
 )
 from .model import (
     GRID_TOL,
+    STREAMLINE_STEP,
     Accuracy,
     Command,
     Design,
@@ -181,6 +182,8 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    if accuracy.trajectory == "continuous":  # the trajectory method rides with the effect blocks
+        return finger, solver, NO_EFFECTS._replace(trajectory=float(STREAMLINE_STEP))
     return finger, solver, NO_EFFECTS  # only the base model so far (model.IMPLEMENTED_EFFECTS)
 
 

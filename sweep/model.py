@@ -126,6 +126,11 @@ IMPLEMENTED_EFFECTS = frozenset({"friction"})
 # resolution on [0, pi].
 RECONFIG_STEP_RANGE = (1e-6, 0.5)
 ROOT_TOL_RANGE = (1e-15, 0.1)
+# MODEL 8: steepest descent on the grid, or streamlines on the interpolated energy
+TRAJECTORY_METHODS = ("discrete", "continuous")
+# The continuous method's integrator step in grid steps (kernels/streamline.py): half a step
+# resolves a turn within one grid cell.
+STREAMLINE_STEP = 0.5
 
 
 class ModelInputError(ValueError):
@@ -167,9 +172,9 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         value = getattr(accuracy, name)
         if not (math.isfinite(value) and low <= value <= high):
             raise ModelInputError(f"{name} must be in [{low:g}, {high:g}] rad, got {value!r}")
-    if accuracy.trajectory != "discrete":
-        raise ModelInputError(f"trajectory method {accuracy.trajectory!r} is not implemented "
-                              "(only 'discrete')")
+    if accuracy.trajectory not in TRAJECTORY_METHODS:
+        raise ModelInputError(f"trajectory method must be one of {', '.join(TRAJECTORY_METHODS)}, "
+                              f"got {accuracy.trajectory!r}")
     if effects is not None:
         unsupported = set(effects.names_on()) - IMPLEMENTED_EFFECTS
         if unsupported:

@@ -76,6 +76,25 @@ def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
     return path
 
 
+def streamline_points(start: int, energy: np.ndarray, point_class: np.ndarray,
+                      equilibrium: np.ndarray, caged: np.ndarray, x: np.ndarray,
+                      y: np.ndarray) -> np.ndarray:
+    """World points (n, 2) of the continuous trajectory from `start` (kernels/streamline.py, the
+    rule the map's end points come from when it was computed with trajectory 'continuous')."""
+    from .kernels.streamline import max_streamline_steps, streamline_walk
+    from .model import STREAMLINE_STEP
+
+    ny, nx = energy.shape
+    steps = max_streamline_steps(ny, nx, STREAMLINE_STEP)
+    path = np.empty((steps + 1, 2))
+    j, i = divmod(int(start), nx)
+    _, _, n = streamline_walk(energy, point_class, equilibrium, caged, i, j, STREAMLINE_STEP,
+                              steps, np.full(energy.size, -1, dtype=np.int64), path)
+    h = x[1] - x[0] if x.size > 1 else 1.0
+    hy = y[1] - y[0] if y.size > 1 else h
+    return np.column_stack([x[0] + path[:n, 0] * h, y[0] + path[:n, 1] * hy])
+
+
 def sample_starts(reached: np.ndarray, moving: np.ndarray, target: int) -> np.ndarray:
     """Flat indices of a regular sub-lattice of the moving points of P_j (about `target`)."""
     n = int(np.count_nonzero(moving))
@@ -244,7 +263,7 @@ def _map_view(m) -> dict:
     limits = (xlo - pad, xhi + pad, ylo - pad, yhi + pad)
     return dict(energy=energy, point_class=point_class, ny=ny, nx=nx, h=h, x=x, y=y, xe=xe,
                 ye=ye, reached=reached, stable=stable, caged=caged, ends=ends,
-                end_count=end_count, moving=moving, pose=pose, why=why, limits=limits)
+                end_count=end_count, moving=moving, pose=pose, why=why, limits=limits, map=m)
 
 
 def _draw_layers(ax, m, v: dict, trajectories: bool = True) -> tuple:
@@ -335,18 +354,24 @@ def _draw_trajectories(ax, v: dict) -> list:
     energy, point_class = v["energy"], v["point_class"]
     ny, nx, h, x, y = v["ny"], v["nx"], v["h"], v["x"], v["y"]
     reached, stable, caged, moving = v["reached"], v["stable"], v["caged"], v["moving"]
-    ends, end_count = v["ends"], v["end_count"]
+    ends, end_count, m = v["ends"], v["end_count"], v["map"]
     starts = sample_starts(reached, moving, TARGET_TRAJECTORIES)
     handles = []
     flat_x = np.broadcast_to(x[None, :], (ny, nx)).ravel()
     flat_y = np.broadcast_to(y[:, None], (ny, nx)).ravel()
     segments = []
     arrows = []
+    continuous = getattr(getattr(m, "accuracy", None), "trajectory", "") == "continuous"
     for s in starts:
-        path = trajectory_path(int(s), energy, point_class, stable, h)
+        if continuous:
+            pts = streamline_points(int(s), energy, point_class, m.fields["equilibrium"],
+                                    np.asarray(m.fields["caging_score"]) > 0, x, y)
+            path = pts
+        else:
+            path = trajectory_path(int(s), energy, point_class, stable, h)
+            pts = np.column_stack([flat_x[path], flat_y[path]])
         if len(path) < 2:
             continue
-        pts = np.column_stack([flat_x[path], flat_y[path]])
         segments.append(pts)
         if len(path) >= 4:
             k = max(1, int(0.6 * (len(path) - 1)))

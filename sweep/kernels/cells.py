@@ -229,11 +229,16 @@ def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, the
                            theta2_max, solver, effects, out, manip):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
     manip: a ManipulationOut with one row per cell, or None."""
-    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
+    # locals: prange cannot capture a record of blocks (read by name: unpacking a record that
+    # holds a record fails in parfor lowering)
+    tip = effects.tip_contact
+    springs = effects.joint_springs
+    collision = effects.finger_collision
+    trajectory = effects.trajectory
     for c in prange(cells.shape[0]):
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
-                       EffectBlocks(tip, springs, collision), ws, steps, ncols[c], nys[c], h,
-                       f_left, f_right, out[c], manip, c)
+                       EffectBlocks(tip, springs, collision, trajectory), ws, steps, ncols[c],
+                       nys[c], h, f_left, f_right, out[c], manip, c)
 
 
 @njit(cache=True)

@@ -34,6 +34,7 @@ from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
                    tip_clearance)
 from .records import EffectBlocks, FingerState
+from .streamline import streamline_ends
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
 N_SUMMARY = len(SUMMARY_FIELDS)
@@ -76,10 +77,15 @@ def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
 @njit(cache=True, parallel=True)
 def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
+    # locals: prange cannot capture a record of blocks (read by name: unpacking a record that
+    # holds a record fails in parfor lowering)
+    tip = effects.tip_contact
+    springs = effects.joint_springs
+    collision = effects.finger_collision
+    trajectory = effects.trajectory
     for j in prange(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver, EffectBlocks(tip, springs, collision),
-                   fingers, side)
+        finger_row(j, dxs, dys[j], finger, solver,
+                   EffectBlocks(tip, springs, collision, trajectory), fingers, side)
 
 
 @njit(cache=True)
@@ -321,6 +327,15 @@ def trajectory_ends(outs, h, stack):
 
 
 @njit(cache=True)
+def trajectories(outs, h, stack, streamline_step):
+    """The map's trajectory method (an accuracy setting): discrete steepest descent when
+    `streamline_step` is None (pruned at compile time), else continuous streamlines."""
+    if streamline_step is None:
+        return trajectory_ends(outs, h, stack)
+    return streamline_ends(outs, h, stack, streamline_step)
+
+
+@njit(cache=True)
 def count_summary(outs, tip_overlap, score_sum, h, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY."""
     point_class = outs.point_class
@@ -373,5 +388,5 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point)
-    score_sum = trajectory_ends(outs, hand.h, stack)
+    score_sum = trajectories(outs, hand.h, stack, effects.trajectory)
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)

@@ -50,9 +50,13 @@ class EffectBlocks(NamedTuple):
     tip_contact: object       # None (the paper's model: vertex strikes are left unresolved)
     joint_springs: object     # None (springs only order the closing)
     finger_collision: object  # None (the paper's fingers pass through each other)
+    trajectory: object        # None: discrete steepest descent; a float: continuous streamlines
+    #                           with that integrator step in grid steps (MODEL 8). A number, not
+    #                           a record: a prange loop cannot capture a record built from locals
 
 
-NO_EFFECTS = EffectBlocks(None, None, None)
+NO_EFFECTS = EffectBlocks(None, None, None, None)
+
 
 
 class Hand(NamedTuple):

@@ -1,0 +1,68 @@
+"""`sweep accuracy CONFIG`: what accuracy costs in time on the user's own config
+(sweep/accuracy.py, docs/accuracy.md)."""
+from __future__ import annotations
+
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import click
+
+from .cli_base import SweepCommand, UserError
+from .cli_sweep import CONFIG
+
+
+@click.command("accuracy", cls=SweepCommand,
+               short_help="Accuracy settings versus time on a config's maps.")
+@click.argument("config", type=CONFIG)
+@click.option("--sample", "n_sample", type=int, default=None,
+              help="Halton-spread design cells in the sample (each part's best cell is "
+                   "always added) [default: 24].")
+@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Directory for accuracy.md, .csv, .png and the resumable work files "
+                   "[default: results/accuracy-<config name>].")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Progress bar on stderr.")
+def accuracy(config, n_sample, out, progress):
+    """Run a ladder of accuracy settings (h, reconfig_step, root_tol, trajectory method) on
+    a deterministic sample of CONFIG's maps against a reference at the finest setting;
+    write a table (markdown + CSV) and a plot, and name the recommended setting: the
+    cheapest whose best design per part equals the reference's. Resumes if killed."""
+    from .accuracy import DEFAULT_SAMPLE, check_sample, run_study, work_dir_key, \
+        write_outputs
+    from .model import ModelInputError
+
+    n_sample = DEFAULT_SAMPLE if n_sample is None else n_sample
+    try:
+        check_sample(n_sample)
+    except ModelInputError as exc:
+        raise UserError(str(exc)) from None
+    out = out or Path("results") / f"accuracy-{config.name}"
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out: {out} is not a directory")
+    work = out / f"work-{work_dir_key(config, n_sample)}"
+    from tqdm import tqdm
+
+    bar = tqdm(total=1, desc="accuracy", unit="step", disable=not progress,
+               file=sys.stderr, dynamic_ncols=True)
+
+    def tell(done, total, label):
+        bar.total = total
+        bar.n = done
+        bar.set_postfix_str(label)
+        bar.refresh()
+
+    started = time.perf_counter()
+    study = run_study(config, n_sample, work, tell)
+    bar.close()
+    words = ["sweep", "accuracy", config.path or config.name]
+    if n_sample != DEFAULT_SAMPLE:
+        words += ["--sample", str(n_sample)]
+    paths = write_outputs(study, out, shlex.join(words), time.perf_counter() - started)
+    rec = study.recommended
+    click.echo(f"recommended: {rec['setting']} (h = {rec['h']:g}, reconfig_step = "
+               f"{rec['reconfig_step']:g}, root_tol = {rec['root_tol']:g}, "
+               f"{rec['trajectory']})")
+    for p in paths:
+        click.echo(f"wrote {p}")
