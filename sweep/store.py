@@ -210,6 +210,9 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
             frozen_config=scene.frozen(),
             effects_on=" ".join(scene.effects.names_on()) or "none",
             effects={k: bool(v) for k, v in scene.resolved()["effects"].items()},
+            # absent: the default outputs energy, equilibrium, caging (older stores too)
+            **({"outputs_on": " ".join(scene.outputs.names_on())}
+               if scene.outputs.names_on() != ["energy", "equilibrium", "caging"] else {}),
             grid_h=scene.h, grid_bounds=scene.bounds, grid_note=GRID_NOTE,
             theta2_min_deg=scene.limits.theta2_min_deg, theta2_max_deg=scene.limits.theta2_max_deg,
             reconfig_step=scene.accuracy.reconfig_step, root_tol=scene.accuracy.root_tol,

@@ -151,9 +151,13 @@ def finger_statics_at(fingers, side, j, i, finger):
 
 
 @njit(cache=True)
-def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_point):
+def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_point,
+                equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
     `forces` is not None) along row j.
+
+    `equilibrium` False skips the part-equilibrium test and `caging` False the cage geometry
+    (containment, L_open, crossing) at every point: those fields are left False / NaN / 0.
 
     The finger arrays are overwritten with fill values (-1 / NaN / False) at infeasible points.
     With every_point False (summaries only), containment, L_open and crossing are computed only
@@ -185,13 +189,13 @@ def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_po
             finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
             + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
         eq = False
-        if c == REACHED:
+        if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
                                      a1r, a2r)
             outs.equilibrium[j, i] = eq
         outs.l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
-        wants_geometry = eq or every_point or (forces is not None and c == REACHED)
+        wants_geometry = caging and (eq or every_point or (forces is not None and c == REACHED))
         if forces is not None:
             forces.geometric_cage_score[j, i] = 0.0
         if not wants_geometry:
@@ -367,11 +371,22 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
 def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
-                     every_point):
+                     every_point, equilibrium=True, caging=True):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
-    summary row. Serial: one map's outcomes cost a few percent of its finger fields."""
+    summary row. Serial: one map's outcomes cost a few percent of its finger fields.
+
+    Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
+    equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
+    Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
+    point, so a branch costs nothing measurable (docs/effects.md)."""
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point)
-    score_sum = trajectory_ends(outs, hand.h, stack)
+        outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point,
+                    equilibrium, caging)
+    if caging:
+        score_sum = trajectory_ends(outs, hand.h, stack)
+    else:
+        outs.end_state[:, :] = END_NONE
+        outs.end_index[:, :] = -1
+        score_sum = np.nan  # no trajectories: Lambda does not exist
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
