@@ -17,6 +17,7 @@ from .kernels.records import (
     NO_EFFECTS,
     EffectBlocks,
     FingerArrays,
+    JointSprings,
     FingerModel,
     ForceArrays,
     Hand,
@@ -175,14 +176,19 @@ class EnergyMap:
 
 
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
-                   effects: Effects) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
+                   effects: Effects, tension: float = 1.0
+                   ) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
     """The kernels' parameter records of a map (one place: the map and the sweep paths).
-    An effect that is off is None in EffectBlocks (compiled out of the kernels)."""
+    An effect that is off is None in EffectBlocks (compiled out of the kernels). `tension` is
+    the tendon tension of the finger the blocks are for (springs act per unit tension)."""
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    return finger, solver, NO_EFFECTS  # only the base model so far (model.IMPLEMENTED_EFFECTS)
+    if not effects.joint_springs:
+        return finger, solver, NO_EFFECTS
+    springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2), float(tension))
+    return finger, solver, EffectBlocks(None, springs, None)
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).
@@ -244,6 +250,9 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     forces = outputs.forces
     outputs.validate()
     validate_inputs(design, part, command, limits, accuracy, effects)
+    if forces and effects.joint_springs:
+        raise ModelInputError("forces with joint_springs are not implemented (the contact "
+                              "forces of MODEL 5.6 leave the springs out)")
     g = map_grid(design, part, grid)
     ny, nx = g.shape
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
@@ -251,8 +260,9 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
 
     fingers = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
-    for side, dxs in ((0, dx_left), (1, dx_right)):
-        finger_field(dxs, g.y, finger, solver, blocks, fingers, side)
+    for side, dxs, tension in ((0, dx_left, command.f_left), (1, dx_right, command.f_right)):
+        _, _, side_blocks = kernel_records(design, part, limits, accuracy, effects, tension)
+        finger_field(dxs, g.y, finger, solver, side_blocks, fingers, side)
     solved = time.perf_counter()
 
     outs = new_outcome_arrays(ny, nx)

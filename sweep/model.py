@@ -125,7 +125,7 @@ class Effects:
         return [k for k in EFFECT_NAMES if getattr(self, k)]
 
 
-IMPLEMENTED_EFFECTS = frozenset({"friction"})
+IMPLEMENTED_EFFECTS = frozenset({"friction", "joint_springs"})
 
 #: What a map may compute (MODEL 9). energy: V and the finger configurations (always);
 #: equilibrium: part equilibrium; caging: containment, L_open, trajectories, caging scores and
@@ -219,9 +219,26 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         if unsupported:
             raise ModelInputError(f"effects not implemented yet: {', '.join(sorted(unsupported))}")
         if effects.joint_springs:
-            for name in ("spring_k1", "spring_k2"):
-                value = getattr(effects, name)
-                if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                    raise ModelInputError(f"{'K' + name[-1]} (joint_springs) must be >= 0, "
-                                          f"got {value!r}")
+            validate_springs(design, command, limits, effects)
 
+
+
+def validate_springs(design: Design, command: Command, limits: Limits, effects: Effects) -> None:
+    """Joint springs weaker than the tendon over the whole joint range (model-notes D12): then
+    the tendon still closes both joints everywhere and the closing sequence (MODEL 4) holds."""
+    for name in ("spring_k1", "spring_k2"):
+        value = getattr(effects, name)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            raise ModelInputError(f"K{name[-1]} (joint_springs) must be >= 0, got {value!r}")
+    tension = min(command.f_left, command.f_right)
+    if tension <= 0:
+        raise ModelInputError("joint_springs: both tendon tensions must be > 0 (a slack finger "
+                              "would be opened by its springs)")
+    span2 = limits.theta2_max - limits.theta2_min
+    for k, span, radius, joint in ((effects.spring_k1, math.pi, design.r1, "K1 pi < F r1"),
+                                   (effects.spring_k2, span2, design.r2,
+                                    "K2 (theta2_max - theta2_min) < F r2")):
+        if not k * span < tension * radius:
+            raise ModelInputError(f"joint_springs: the springs must be weaker than the tendon "
+                                  f"over the joint range ({joint}), got K = {k!r}, "
+                                  f"F = {tension!r}, r = {radius!r}")

@@ -441,6 +441,15 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
                 raise SceneError(f"outputs.manipulation: every palm width must be a multiple of "
                                  f"2h = {2 * h:g} (poses are shared lattice points); w = {w:g}")
 
+    if effects.joint_springs:
+        if any((c.f_left, c.f_right) != (1.0, 1.0) for c in commands):
+            # the sweep solves one finger field for both fingers at unit tension
+            raise SceneError("effects.joint_springs: a sweep with springs needs the command "
+                             "f_left = f_right = 1 (scale K1, K2 instead)")
+        if map_outputs.forces or manipulation:
+            raise SceneError("effects.joint_springs: forces and the manipulation metric leave "
+                             "the springs out; switch them off")
+
     run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
     sub = run.get("sub_chunk_cells")
     if sub is not None and (isinstance(sub, bool) or not isinstance(sub, int) or sub < 1):

@@ -224,12 +224,19 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
                        cells[c, 5], theta2_min, theta2_max)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
                            theta2_max, solver, effects, out, manip):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
     manip: a ManipulationOut with one row per cell, or None."""
-    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
+    tip, springs, collision = effects  # a prange loop captures blocks only as arguments
+    summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, tip, springs, collision, out, manip)
+
+
+@njit(cache=True, parallel=True)
+def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, tip, springs, collision, out, manip):
     for c in prange(cells.shape[0]):
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision), ws, steps, ncols[c], nys[c], h,

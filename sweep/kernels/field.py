@@ -30,7 +30,7 @@ from ..model import (
     VERTEX_POINT,
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
-from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
+from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
                    tip_clearance, touches_palm)
 from .records import EffectBlocks, FingerState
@@ -73,13 +73,26 @@ def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
         fingers.tip_overlap[side, j, i] = s.tip_overlap
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    tip, springs, collision = effects  # locals: prange cannot capture a record of blocks
+    tip, springs, collision = effects
+    finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side)
+
+
+@njit(cache=True, parallel=True)
+def finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side):
+    """finger_field's parallel loop. The blocks come as arguments: a prange loop cannot capture
+    a record of blocks, nor a record unpacked from one (parfor lowering finds no definition of
+    it, numba 0.68.1), but it can capture a record that is an argument."""
     for j in prange(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver, EffectBlocks(tip, springs, collision),
-                   fingers, side)
+        finger_row_of_blocks(j, dxs, dys[j], finger, solver, tip, springs, collision, fingers,
+                             side)
+
+
+@njit(cache=True)
+def finger_row_of_blocks(j, dxs, dy, finger, solver, tip, springs, collision, fingers, side):
+    finger_row(j, dxs, dy, finger, solver, EffectBlocks(tip, springs, collision), fingers, side)
 
 
 @njit(cache=True)
@@ -151,7 +164,7 @@ def finger_statics_at(fingers, side, j, i, finger):
 
 
 @njit(cache=True)
-def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_point,
+def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch, every_point,
                 equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
     `forces` is not None) along row j.
@@ -188,6 +201,9 @@ def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_po
         outs.energy[j, i] = (
             finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
             + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
+        if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
+            outs.energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
+                                  + spring_energy(a1r, a2r, springs, finger.theta2_min))
         eq = False
         if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
@@ -381,8 +397,8 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
     point, so a branch costs nothing measurable (docs/effects.md)."""
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point,
-                    equilibrium, caging)
+        outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, fingers, outs, forces,
+                    scratch, every_point, equilibrium, caging)
     if caging:
         score_sum = trajectory_ends(outs, hand.h, stack)
     else:
