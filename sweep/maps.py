@@ -17,6 +17,7 @@ from .kernels.records import (
     NO_EFFECTS,
     EffectBlocks,
     FingerArrays,
+    FingerCollision,
     JointSprings,
     FingerModel,
     ForceArrays,
@@ -40,7 +41,7 @@ from .model import (
     Part,
     validate_inputs,
 )
-from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS
+from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
 # Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
 # outcomes (3 floats, 5 flags/codes), trajectories (code, 2 int64).
@@ -185,10 +186,17 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    if not effects.joint_springs:
+    if not (effects.joint_springs or effects.finger_collision):
         return finger, solver, NO_EFFECTS
-    springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2), float(tension))
-    return finger, solver, EffectBlocks(None, springs, None)
+    springs = None
+    if effects.joint_springs:
+        springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2),
+                               float(tension))
+    collision = None
+    if effects.finger_collision:
+        # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
+        collision = FingerCollision(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    return finger, solver, EffectBlocks(None, springs, collision)
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).
@@ -223,11 +231,13 @@ CAGING_SUMMARY = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_eje
                   "n_stalled", "n_caged_points", "n_caged_crossed")
 
 
-def summary_attrs(summary: np.ndarray, outputs: Outputs = Outputs()) -> dict:
+def summary_attrs(summary: np.ndarray, outputs: Outputs = Outputs(),
+                  effects: Effects = Effects()) -> dict:
     """The kernels' summary row as named attributes (floats and counts, sweep.schema.SUMMARY),
-    without the ones whose output is off."""
+    without the ones whose output or effect is off."""
+    on = effects.names_on()
     attrs = {name: (int(v) if name in COUNT_FIELDS else float(v))
-             for name, v in zip(SUMMARY_FIELDS, summary)}
+             for name, v in zip(SUMMARY_FIELDS, summary) if summary_field_on(name, on)}
     if not outputs.caging:
         for name in CAGING_SUMMARY:
             attrs.pop(name, None)
@@ -274,7 +284,7 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
                      outputs.equilibrium, outputs.caging)
     finished = time.perf_counter()
 
-    attrs = summary_attrs(summary, outputs)
+    attrs = summary_attrs(summary, outputs, effects)
     attrs.update(window_edge="user window: trajectories stop at its edge" if g.windowed
                  else "whole reach", seconds_fingers=solved - started,
                  seconds_total=finished - started)

@@ -125,7 +125,7 @@ class Effects:
         return [k for k in EFFECT_NAMES if getattr(self, k)]
 
 
-IMPLEMENTED_EFFECTS = frozenset({"friction", "joint_springs"})
+IMPLEMENTED_EFFECTS = frozenset({"friction", "joint_springs", "finger_collision"})
 
 #: What a map may compute (MODEL 9). energy: V and the finger configurations (always);
 #: equilibrium: part equilibrium; caging: containment, L_open, trajectories, caging scores and

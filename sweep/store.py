@@ -32,7 +32,7 @@ from .h5 import (atomic_file, iter_names, provenance, read_json_attr, set_root_a
                  write_coordinate, write_variable)
 from .manipulation import PARAMETER_NAMES, ManipulationChunk
 from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
-from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS
+from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
@@ -200,7 +200,8 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
                                ("command",), dict(long_name=f"tendon tension of the "
                                                   f"{k[2:]} finger", units="force (model units)"))
         for name in SUMMARY_FIELDS:
-            write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
+            if summary_field_on(name, scene.effects.names_on()):
+                write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
         if manipulation is not None:
             _write_manipulation(f, scene, manipulation)
         attrs = dict(

@@ -32,7 +32,7 @@ from ..model import (
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   tip_clearance, touches_palm)
+                   resolve_collisions, tip_clearance, touches_palm)
 from .records import EffectBlocks, FingerState
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
@@ -53,6 +53,7 @@ S_INFEASIBLE = SUMMARY_INDEX["n_infeasible"]
 S_UNREACHED = SUMMARY_INDEX["n_unreached"]
 S_EJECT = SUMMARY_INDEX["n_eject"]
 S_CAGED_POINTS = SUMMARY_INDEX["n_caged_points"]
+S_COLLISION_CHANGED = SUMMARY_INDEX["n_collision_changed"]
 SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edges)
 
 
@@ -396,6 +397,8 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
     point, so a branch costs nothing measurable (docs/effects.md)."""
     scratch = np.empty(SCRATCH_ANGLES)
+    n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
+                                             effects.finger_collision)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, fingers, outs, forces,
                     scratch, every_point, equilibrium, caging)
@@ -406,3 +409,4 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
         outs.end_index[:, :] = -1
         score_sum = np.nan  # no trajectories: Lambda does not exist
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
+    summary[S_COLLISION_CHANGED] = n_collision_changed

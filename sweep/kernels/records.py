@@ -67,6 +67,15 @@ class JointSprings(NamedTuple):
     tension: float
 
 
+class FingerCollision(NamedTuple):
+    """The finger_collision effect (MODEL 9, model-notes D13): the fingers close together with
+    a shared progress and stop where they first meet. The meeting is found by stepping the
+    progress (rad of joint travel) and bracketing it to `tol`."""
+
+    progress_step: float
+    tol: float
+
+
 class Hand(NamedTuple):
     """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
 
