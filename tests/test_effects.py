@@ -190,3 +190,16 @@ def test_effects_off_in_the_scene_means_the_base_kernels():
 def test_outputs_from_names_refuses_unknown():
     with pytest.raises(ModelInputError, match="unknown output"):
         Outputs.from_names(["energy", "stress"])
+
+
+@pytest.mark.parametrize("name, on", [("paper-collision", ["friction", "finger_collision"]),
+                                      ("small-collision", ["friction", "finger_collision"]),
+                                      ("small-springs-collision",
+                                       ["friction", "joint_springs", "finger_collision"])])
+def test_effect_configs_load(name, on):
+    from pathlib import Path
+
+    from sweep.scene import load_scene
+
+    s = load_scene(Path(__file__).resolve().parent.parent / "configs" / f"{name}.yaml")
+    assert s.effects.names_on() == on
