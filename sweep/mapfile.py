@@ -79,6 +79,9 @@ def describe(m: EnergyMap) -> str:
     else:
         lines.append(f"outputs: {', '.join(m.outputs)}; tip_overlap points "
                      f"{a['n_tip_overlap']:,}")
+    if "n_collision_changed" in a:
+        lines.append(f"finger_collision changed the configuration at "
+                     f"{a['n_collision_changed']:,} points")
     lines.append(f"computed in {a['seconds_total'] * 1e3:.1f} ms")
     if not math.isfinite(a.get("Lambda", 0.0)):
         lines.append("warning: non-finite Lambda")
