@@ -89,7 +89,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     """
     from .maps import compute_map, map_grid
     from .model import (Command, Design, Grid, Limits, ModelInputError, Part,
-                        validate_inputs)
+                        validate_inputs, validate_scene)
     from .outputs import claim_output
     from .runner import RunError, numba_threads, resolve_threads
 
@@ -103,10 +103,14 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         outputs = _outputs_from_flags(outputs_spec, forces)
         effects = _effects_from_flags(effects_spec, spring_k1, spring_k2, mu)
         validate_inputs(design, part, command, limits, accuracy, effects)
+        validate_scene(effects, outputs)
         map_grid(design, part, grid)  # sizes the grid and checks it fits in memory
         threads = resolve_threads(threads)
     except (ModelInputError, RunError) as err:
         raise UserError(str(err)) from None
+    if plot_path is not None and not outputs.caging:
+        raise UserError("--plot draws trajectories and caging scores: it needs the caging "
+                        "output (--outputs energy,equilibrium,caging)")
     if plot_path is not None and plot_path.resolve() == out.resolve():
         raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 

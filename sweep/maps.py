@@ -40,6 +40,7 @@ from .model import (
     Outputs,
     Part,
     validate_inputs,
+    validate_scene,
 )
 from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
@@ -258,11 +259,8 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     if forces and not outputs.forces:
         outputs = Outputs(**{**outputs.__dict__, "forces": True})
     forces = outputs.forces
-    outputs.validate()
+    validate_scene(effects, outputs)
     validate_inputs(design, part, command, limits, accuracy, effects)
-    if forces and effects.joint_springs:
-        raise ModelInputError("forces with joint_springs are not implemented (the contact "
-                              "forces of MODEL 5.6 leave the springs out)")
     g = map_grid(design, part, grid)
     ny, nx = g.shape
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)

@@ -242,3 +242,11 @@ def validate_springs(design: Design, command: Command, limits: Limits, effects: 
             raise ModelInputError(f"joint_springs: the springs must be weaker than the tendon "
                                   f"over the joint range ({joint}), got K = {k!r}, "
                                   f"F = {tension!r}, r = {radius!r}")
+
+
+def validate_scene(effects: Effects, outputs: Outputs) -> None:
+    """Combinations of effects and outputs that are not implemented (one-line ModelInputError)."""
+    outputs.validate()
+    if outputs.forces and effects.joint_springs:
+        raise ModelInputError("forces with joint_springs are not implemented (the contact "
+                              "forces of MODEL 5.6 leave the springs out)")

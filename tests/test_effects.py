@@ -118,6 +118,9 @@ def test_map_flags_record_outputs_and_effects(tmp_path):
     (["--effects", "friction,joint_springs"], "needs --K1 and --K2"),
     (["--K1", "0.1", "--K2", "0.1"], "add joint_springs"),
     (["--effects", "none"], "--mu must be 0"),
+    (["--outputs", "energy", "--plot", "x.png"], "needs the caging output"),
+    (["--effects", "friction,joint_springs", "--K1", "0.01", "--K2", "0.01", "--forces"],
+     "forces with joint_springs are not implemented"),
 ])
 def test_map_refuses_bad_scene_flags_before_writing(tmp_path, flags, message):
     out = tmp_path / "m.h5"
