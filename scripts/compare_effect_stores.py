@@ -3,6 +3,9 @@ paper sweep without and with finger_collision): totals of the class counts, Lamb
 best design (largest Lambda) of every part. Prints Markdown.
 
     .venv/bin/python scripts/compare_effect_stores.py base.h5 effect.h5
+    .venv/bin/python scripts/compare_effect_stores.py base.h5 effect.h5.parts --partial [L1]
+
+With --partial, the second argument is the part-file directory of an unfinished run.
 """
 from __future__ import annotations
 
@@ -63,5 +66,77 @@ def main(base_path, effect_path):
               f"{', '.join(f'{v:g}' for v in db)} | {vb:,.0f} | {'yes' if da == db else 'no'} |")
 
 
+
+
+def compare_partial(base_path, parts_dir, l1_best=None):
+    """Compare a finished base store with the finished part files of an unfinished run of the
+    same designs (another scene), on the maps both have. Best designs per part are taken among
+    the designs with l1 == l1_best (a complete slice of the table) when given."""
+    from pathlib import Path
+
+    from sweep.schema import SUMMARY_FIELDS
+    from sweep.store import read_block
+
+    base = read_store(base_path)
+    # store dims (l1 l2 r1 r2 w r mu) -> item order (l1 l2 r [command] r1 r2 mu) x w
+    order = ("l1", "l2", "r", "r1", "r2", "mu", "w")
+    perm = [list(base.dims).index(d) for d in order]
+    n_w = len(base.coords["w"])
+    full_base = {n: np.transpose(base.variables[n], perm).reshape(-1, n_w) for n in SUMMARY_FIELDS
+                 if n in base.variables}
+    n_items = next(iter(full_base.values())).shape[0]
+    eff = np.full((n_items, n_w, len(SUMMARY_FIELDS)), np.nan)
+    covered = np.zeros(n_items, dtype=bool)
+    for p in sorted(Path(parts_dir).glob("*.h5")):
+        b = read_block(p)
+        eff[b.start:b.stop] = b.data
+        covered[b.start:b.stop] = True
+    idx = {n: k for k, n in enumerate(SUMMARY_FIELDS)}
+    print(f"maps compared: {covered.sum() * n_w:,} of {n_items * n_w:,} "
+          f"(items {np.flatnonzero(covered).min()}..{np.flatnonzero(covered).max()})\n")
+    print("| count (sum over the maps compared) | base | with effect | change |")
+    print("|---|---|---|---|")
+    for name in COUNTS + ("n_collision_changed",):
+        sb = int(np.sum(eff[covered, :, idx[name]]))
+        if name in full_base:
+            sa = int(np.sum(full_base[name][covered]))
+            print(f"| {name} | {sa:,} | {sb:,} | {sb - sa:+,} |")
+        else:
+            print(f"| {name} |  | {sb:,} |  |")
+    la, lb = full_base["Lambda"][covered], eff[covered, :, idx["Lambda"]]
+    print(f"\nLambda summed over the maps compared: base {la.sum():,.0f}, with effect "
+          f"{lb.sum():,.0f} ({lb.sum() / la.sum():.3f} of base); maps whose Lambda changed: "
+          f"{int(np.sum(la != lb)):,} of {la.size:,}\n")
+    if l1_best is None:
+        return
+    shape = tuple(len(base.coords[d]) for d in order[:-1])
+    items = np.arange(n_items).reshape(shape)
+    il1 = int(np.flatnonzero(np.isclose(base.coords["l1"], l1_best))[0])
+    print(f"Best design (largest Lambda) per part among the designs with l1 = {l1_best:g}:\n")
+    print("| part (r, mu) | base best (l1, l2, r1, r2, w) | Lambda | with effect | Lambda | same |")
+    print("|---|---|---|---|---|---|")
+    for ir, r in enumerate(base.coords["r"]):
+        for imu, mu in enumerate(base.coords["mu"]):
+            sel = items[il1, :, ir, :, :, imu].reshape(-1)
+            if not covered[sel].all():
+                print(f"| {r:g}, {mu:g} | not covered |  |  |  |  |")
+                continue
+            rows = []
+            for vals in (full_base["Lambda"][sel], eff[sel, :, idx["Lambda"]]):
+                k, kw = np.unravel_index(int(np.nanargmax(vals)), vals.shape)
+                _, il2, _, ir1, ir2, _ = np.unravel_index(sel[k], shape)
+                rows.append(((l1_best, float(base.coords["l2"][il2]),
+                              float(base.coords["r1"][ir1]), float(base.coords["r2"][ir2]),
+                              float(base.coords["w"][kw])), float(vals[k, kw])))
+            (da, va), (db, vb) = rows
+            print(f"| {r:g}, {mu:g} | {', '.join(f'{v:g}' for v in da)} | {va:,.0f} | "
+                  f"{', '.join(f'{v:g}' for v in db)} | {vb:,.0f} | "
+                  f"{'yes' if da == db else 'no'} |")
+
+
 if __name__ == "__main__":
-    main(*sys.argv[1:3])
+    if "--partial" in sys.argv:
+        rest = sys.argv[sys.argv.index("--partial") + 1:]
+        compare_partial(sys.argv[1], sys.argv[2], float(rest[0]) if rest else None)
+    else:
+        main(*sys.argv[1:3])
