@@ -64,12 +64,23 @@ def main():
 @click.option("--forces/--no-forces", default=False, show_default=True,
               help="Also store each finger's contact forces on the part per unit tendon tension "
                    "(normal forces, distal friction multiplier, resultant; MODEL 5.1, 5.6).")
+@click.option("--outputs", "outputs_spec", default=None, metavar="NAMES",
+              help="Comma-separated outputs to compute: energy, equilibrium, caging, forces "
+                   "[default: energy,equilibrium,caging]; only these are computed (MODEL 9).")
+@click.option("--effects", "effects_spec", default=None, metavar="NAMES",
+              help="Comma-separated effects on (all of them, friction included): friction, "
+                   "tip_contact, joint_springs, finger_collision [default: friction]; 'none' "
+                   "for the frictionless base model.")
+@click.option("--K1", "spring_k1", type=float, default=None,
+              help="Proximal joint spring stiffness (with --effects ...,joint_springs).")
+@click.option("--K2", "spring_k2", type=float, default=None,
+              help="Distal joint spring stiffness (with --effects ...,joint_springs).")
 @click.option("--overwrite", is_flag=True, help="Replace existing --out / --plot files.")
 @click.option("--wait", is_flag=True,
               help="If another process is writing the same --out, wait for it.")
 def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
                 theta2_max, reconfig_step, root_tol, threads, out, plot_path, forces,
-                overwrite, wait):
+                outputs_spec, effects_spec, spring_k1, spring_k2, overwrite, wait):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
     Per grid point of part centres: finger configurations and modes, energy, class, part
@@ -78,8 +89,8 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
     from .maps import compute_map, map_grid
-    from .model import (Command, Design, Effects, Grid, Limits, ModelInputError, Part,
-                        validate_inputs)
+    from .model import (Command, Design, Grid, Limits, ModelInputError, Part,
+                        validate_inputs, validate_scene)
     from .outputs import claim_output
     from .runner import RunError, numba_threads, resolve_threads
 
@@ -90,11 +101,17 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     limits = Limits(theta2_min_deg=theta2_min, theta2_max_deg=theta2_max)
     accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol)
     try:
-        validate_inputs(design, part, command, limits, accuracy, Effects())
+        outputs = _outputs_from_flags(outputs_spec, forces)
+        effects = _effects_from_flags(effects_spec, spring_k1, spring_k2, mu)
+        validate_inputs(design, part, command, limits, accuracy, effects)
+        validate_scene(effects, outputs)
         map_grid(design, part, grid)  # sizes the grid and checks it fits in memory
         threads = resolve_threads(threads)
     except (ModelInputError, RunError) as err:
         raise UserError(str(err)) from None
+    if plot_path is not None and not outputs.caging:
+        raise UserError("--plot draws trajectories and caging scores: it needs the caging "
+                        "output (--outputs energy,equilibrium,caging)")
     if plot_path is not None and plot_path.resolve() == out.resolve():
         raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 
@@ -109,11 +126,13 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
             # Load (or, the first time, compile) the kernels on a tiny map so the timing
             # reported for the real map is the computation alone.
             started = time.perf_counter()
-            compute_map(design, part, command, Grid(h=max(h, 0.5)), limits, accuracy)
+            compute_map(design, part, command, Grid(h=max(h, 0.5)), limits, accuracy, effects,
+                        outputs=outputs)
             if time.perf_counter() - started > 2.0:
                 click.echo(f"kernels compiled in {time.perf_counter() - started:.1f} s "
                            "(cached for the next run)")
-            m = compute_map(design, part, command, grid, limits, accuracy, forces=forces)
+            m = compute_map(design, part, command, grid, limits, accuracy, effects,
+                            outputs=outputs)
         write_map(out, m)
         click.echo(describe(m))
         click.echo(f"wrote {out}")
@@ -122,6 +141,46 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
             plot_map(m, plot_path)
             click.echo(f"wrote {plot_path}")
+
+
+def _outputs_from_flags(spec, forces):
+    """The Outputs of `--outputs` (and the older `--forces`); ModelInputError if bad."""
+    from .model import ModelInputError, Outputs
+
+    if spec is None:
+        return Outputs(forces=forces)
+    names = [n.strip() for n in spec.split(",") if n.strip()]
+    try:
+        return Outputs.from_names(names + (["forces"] if forces else []))
+    except ModelInputError as err:
+        raise ModelInputError(f"--{err}") from None
+
+
+def _effects_from_flags(spec, k1, k2, mu):
+    """The Effects of `--effects`, `--K1`, `--K2`; ModelInputError if bad."""
+    from .model import EFFECT_NAMES, Effects, ModelInputError
+
+    if spec is None:
+        names = ["friction"]
+    elif spec.strip() == "none":
+        names = []
+    else:
+        names = [n.strip() for n in spec.split(",") if n.strip()]
+    unknown = [n for n in names if n not in EFFECT_NAMES]
+    if unknown:
+        raise ModelInputError(f"--effects: unknown effect {unknown[0]!r} "
+                              f"(valid: {', '.join(EFFECT_NAMES)}, or none)")
+    springs = "joint_springs" in names
+    if springs and (k1 is None or k2 is None):
+        raise ModelInputError("--effects joint_springs needs --K1 and --K2")
+    if not springs and (k1 is not None or k2 is not None):
+        raise ModelInputError("--K1/--K2 are joint spring stiffnesses: add joint_springs to "
+                              "--effects")
+    if "friction" not in names and mu != 0:
+        raise ModelInputError(f"--effects lists every effect on and friction is not among them, "
+                              f"so --mu must be 0 (got {mu}); add friction to keep it")
+    return Effects(**{n: n in names for n in EFFECT_NAMES},
+                   spring_k1=float(k1 or 0.0), spring_k2=float(k2 or 0.0))
 
 
 for _command in (*SWEEP_COMMANDS, accuracy_command):

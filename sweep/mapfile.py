@@ -28,8 +28,11 @@ def map_root_attrs(m: EnergyMap) -> dict:
         effects_on=m.effects.names_on(),
         h=m.grid.h,
     )
-    if "forces" in m.outputs:  # the base outputs are implied (files written before outputs existed)
+    # absent: the default outputs energy, equilibrium, caging (files written before outputs existed)
+    if tuple(m.outputs) != ("energy", "equilibrium", "caging"):
         attrs["outputs_on"] = list(m.outputs)
+    if m.effects.joint_springs:
+        attrs["joint_springs"] = dict(K1=m.effects.spring_k1, K2=m.effects.spring_k2)
     for key, value in m.attrs.items():
         attrs[key] = value
     attrs.update(provenance())
@@ -63,14 +66,23 @@ def describe(m: EnergyMap) -> str:
         f"{ny} x {nx} = {a['n_points']:,} points at h = {m.grid.h:g}; "
         f"reached {a['n_reached']:,}, eject {a['n_eject']:,}, vertex {a['n_vertex']:,}, "
         f"unreached {a['n_unreached']:,}, infeasible {a['n_infeasible']:,}",
-        f"trajectories from reached points end: caged {a['n_caged']:,}, "
-        f"tip prehension {a['n_tip_prehension']:,}, ejection {a['n_ejection']:,}, "
-        f"stalled {a['n_stalled']:,}",
-        f"Lambda = {a['Lambda']:.6g}, caging area = {a['caging_area']:.6g}; "
-        f"caged points {a['n_caged_points']:,} ({a['n_caged_crossed']:,} with crossed fingers); "
-        f"tip_overlap points {a['n_tip_overlap']:,}",
-        f"computed in {a['seconds_total'] * 1e3:.1f} ms",
     ]
-    if not math.isfinite(a["Lambda"]):
+    if "Lambda" in a:  # the caging output
+        lines += [
+            f"trajectories from reached points end: caged {a['n_caged']:,}, "
+            f"tip prehension {a['n_tip_prehension']:,}, ejection {a['n_ejection']:,}, "
+            f"stalled {a['n_stalled']:,}",
+            f"Lambda = {a['Lambda']:.6g}, caging area = {a['caging_area']:.6g}; "
+            f"caged points {a['n_caged_points']:,} ({a['n_caged_crossed']:,} with crossed "
+            f"fingers); tip_overlap points {a['n_tip_overlap']:,}",
+        ]
+    else:
+        lines.append(f"outputs: {', '.join(m.outputs)}; tip_overlap points "
+                     f"{a['n_tip_overlap']:,}")
+    if "n_collision_changed" in a:
+        lines.append(f"finger_collision changed the configuration at "
+                     f"{a['n_collision_changed']:,} points")
+    lines.append(f"computed in {a['seconds_total'] * 1e3:.1f} ms")
+    if not math.isfinite(a.get("Lambda", 0.0)):
         lines.append("warning: non-finite Lambda")
     return "\n".join(lines)

@@ -17,6 +17,8 @@ from .kernels.records import (
     NO_EFFECTS,
     EffectBlocks,
     FingerArrays,
+    FingerCollision,
+    JointSprings,
     FingerModel,
     ForceArrays,
     Hand,
@@ -36,10 +38,12 @@ from .model import (
     Grid,
     Limits,
     ModelInputError,
+    Outputs,
     Part,
     validate_inputs,
+    validate_scene,
 )
-from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS
+from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
 # Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
 # outcomes (3 floats, 5 flags/codes), trajectories (code, 2 int64).
@@ -175,26 +179,48 @@ class EnergyMap:
 
 
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
-                   effects: Effects) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
+                   effects: Effects, tension: float = 1.0
+                   ) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
     """The kernels' parameter records of a map (one place: the map and the sweep paths).
-    An effect that is off is None in EffectBlocks (compiled out of the kernels)."""
+    An effect that is off is None in EffectBlocks (compiled out of the kernels). `tension` is
+    the tendon tension of the finger the blocks are for (springs act per unit tension)."""
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    trajectory = None
     if accuracy.trajectory == "continuous":  # the trajectory method rides with the effect blocks
-        return finger, solver, NO_EFFECTS._replace(trajectory=float(STREAMLINE_STEP))
-    return finger, solver, NO_EFFECTS  # only the base model so far (model.IMPLEMENTED_EFFECTS)
+        trajectory = float(STREAMLINE_STEP)
+    springs = None
+    if effects.joint_springs:
+        springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2),
+                               float(tension))
+    collision = None
+    if effects.finger_collision:
+        # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
+        collision = FingerCollision(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    if springs is None and collision is None and trajectory is None:
+        return finger, solver, NO_EFFECTS
+    return finger, solver, EffectBlocks(None, springs, collision, trajectory)
+
+
+# Per-point fields that exist only with an output (the rest come with the energy).
+CAGING_FIELDS = ("end_state", "contained", "l_open", "caging_score", "end_index")
 
 
 def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
-               forces: ForceArrays | None) -> dict[str, np.ndarray]:
-    """Kernel arrays -> the named per-point fields of sweep.schema."""
+               forces: ForceArrays | None, outputs: Outputs = Outputs()) -> dict[str, np.ndarray]:
+    """Kernel arrays -> the named per-point fields of sweep.schema (those of the outputs on)."""
     fields = dict(energy=outs.energy, point_class=outs.point_class, end_state=outs.end_state,
                   equilibrium=outs.equilibrium, contained=outs.contained, l_open=outs.l_open,
                   caging_score=outs.caging_score, finger_mode=fingers.mode, theta1=fingers.t1,
                   theta2=fingers.t2, k1=fingers.k1, k2=fingers.k2,
                   tip_overlap=fingers.tip_overlap, end_index=outs.end_index)
+    if not outputs.caging:
+        for name in CAGING_FIELDS:
+            del fields[name]
+    if not outputs.equilibrium:
+        del fields["equilibrium"]
     if forces is not None:
         fields.update(proximal_normal_force=forces.proximal_normal,
                       distal_normal_force=forces.distal_normal,
@@ -206,17 +232,39 @@ def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
     return fields
 
 
-def summary_attrs(summary: np.ndarray) -> dict:
-    """The kernels' summary row as named attributes (floats and counts, sweep.schema.SUMMARY)."""
-    return {name: (int(v) if name in COUNT_FIELDS else float(v))
-            for name, v in zip(SUMMARY_FIELDS, summary)}
+# Summary fields that exist only with an output (trajectory and caging counts, equilibrium count).
+CAGING_SUMMARY = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection",
+                  "n_stalled", "n_caged_points", "n_caged_crossed")
+
+
+def summary_attrs(summary: np.ndarray, outputs: Outputs = Outputs(),
+                  effects: Effects = Effects()) -> dict:
+    """The kernels' summary row as named attributes (floats and counts, sweep.schema.SUMMARY),
+    without the ones whose output or effect is off."""
+    on = effects.names_on()
+    attrs = {name: (int(v) if name in COUNT_FIELDS else float(v))
+             for name, v in zip(SUMMARY_FIELDS, summary) if summary_field_on(name, on)}
+    if not outputs.caging:
+        for name in CAGING_SUMMARY:
+            attrs.pop(name, None)
+    if not outputs.equilibrium:
+        attrs.pop("n_equilibrium", None)
+    return attrs
 
 
 def compute_map(design: Design, part: Part, command: Command = Command(), grid: Grid = Grid(),
                 limits: Limits = Limits(), accuracy: Accuracy = Accuracy(),
-                effects: Effects = Effects(), forces: bool = False) -> EnergyMap:
-    """Compute one friction-based energy map (MODEL 2-8); with `forces`, also the contact forces
-    of both fingers at every feasible point (MODEL 5.1, 5.6)."""
+                effects: Effects = Effects(), forces: bool = False,
+                outputs: Outputs | None = None) -> EnergyMap:
+    """Compute one friction-based energy map (MODEL 2-8); with `forces` (or `outputs.forces`),
+    also the contact forces of both fingers at every feasible point (MODEL 5.1, 5.6). Only the
+    outputs on are computed (MODEL 9): without `caging` no containment, L_open or trajectories,
+    without `equilibrium` no part-equilibrium test either."""
+    outputs = outputs or Outputs()
+    if forces and not outputs.forces:
+        outputs = Outputs(**{**outputs.__dict__, "forces": True})
+    forces = outputs.forces
+    validate_scene(effects, outputs)
     validate_inputs(design, part, command, limits, accuracy, effects)
     g = map_grid(design, part, grid)
     ny, nx = g.shape
@@ -225,8 +273,9 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
 
     fingers = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
-    for side, dxs in ((0, dx_left), (1, dx_right)):
-        finger_field(dxs, g.y, finger, solver, blocks, fingers, side)
+    for side, dxs, tension in ((0, dx_left, command.f_left), (1, dx_right, command.f_right)):
+        _, _, side_blocks = kernel_records(design, part, limits, accuracy, effects, tension)
+        finger_field(dxs, g.y, finger, solver, side_blocks, fingers, side)
     solved = time.perf_counter()
 
     outs = new_outcome_arrays(ny, nx)
@@ -234,15 +283,15 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     summary = np.empty(len(SUMMARY_FIELDS))
     hand = Hand(float(design.w), float(command.f_left), float(command.f_right), float(g.h))
     map_from_fingers(g.x, g.y, finger, hand, blocks, fingers, outs, force_arrays,
-                     np.empty(ny * nx, dtype=np.int64), summary, True)
+                     np.empty(ny * nx if outputs.caging else 0, dtype=np.int64), summary, True,
+                     outputs.equilibrium, outputs.caging)
     finished = time.perf_counter()
 
-    attrs = summary_attrs(summary)
+    attrs = summary_attrs(summary, outputs, effects)
     attrs.update(window_edge="user window: trajectories stop at its edge" if g.windowed
                  else "whole reach", seconds_fingers=solved - started,
                  seconds_total=finished - started)
-    outputs = ("energy", "equilibrium", "caging") + (("forces",) if forces else ())
     return EnergyMap(design=design, part=part, command=command, grid=grid, limits=limits,
                      accuracy=accuracy, effects=effects, x=g.x, y=g.y,
-                     fields=map_fields(fingers, outs, force_arrays), attrs=attrs,
-                     outputs=outputs)
+                     fields=map_fields(fingers, outs, force_arrays, outputs), attrs=attrs,
+                     outputs=tuple(outputs.names_on()))

@@ -7,7 +7,7 @@ compile time on purpose).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 # ---------------------------------------------------------------------------------------------
 # Categorical codes (stored with CF flag_values / flag_meanings)
@@ -106,20 +106,64 @@ class Grid:
     ylim: tuple[float, float] | None = None
 
 
+EFFECT_NAMES = ("friction", "tip_contact", "joint_springs", "finger_collision")
+
+
 @dataclass(frozen=True)
 class Effects:
-    """Effects a scene may switch on (MODEL 9). Only the base model is implemented so far."""
+    """Effects a scene may switch on (MODEL 9). `spring_k1`, `spring_k2` are the joint springs'
+    stiffnesses K1, K2 (torque per radian, model units), used only with `joint_springs`."""
 
     friction: bool = True
     tip_contact: bool = False
     joint_springs: bool = False
     finger_collision: bool = False
+    spring_k1: float = 0.0
+    spring_k2: float = 0.0
 
     def names_on(self) -> list[str]:
-        return [k for k, v in asdict(self).items() if v]
+        return [k for k in EFFECT_NAMES if getattr(self, k)]
 
 
-IMPLEMENTED_EFFECTS = frozenset({"friction"})
+IMPLEMENTED_EFFECTS = frozenset({"friction", "joint_springs", "finger_collision"})
+
+#: What a map may compute (MODEL 9). energy: V and the finger configurations (always);
+#: equilibrium: part equilibrium; caging: containment, L_open, trajectories, caging scores and
+#: Lambda (needs equilibrium); forces: contact forces (MODEL 5.6).
+OUTPUT_NAMES = ("energy", "equilibrium", "caging", "forces")
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """The outputs a map computes; the default is the paper's map (everything but forces)."""
+
+    energy: bool = True
+    equilibrium: bool = True
+    caging: bool = True
+    forces: bool = False
+
+    def names_on(self) -> list[str]:
+        return [k for k in OUTPUT_NAMES if getattr(self, k)]
+
+    @classmethod
+    def from_names(cls, names) -> "Outputs":
+        """Outputs from a list of names; raises ModelInputError naming an unknown or missing one."""
+        names = list(names)
+        unknown = [n for n in names if n not in OUTPUT_NAMES]
+        if unknown:
+            raise ModelInputError(f"unknown output {unknown[0]!r} (valid: "
+                                  f"{', '.join(OUTPUT_NAMES)})")
+        out = cls(**{k: k in names for k in OUTPUT_NAMES})
+        out.validate()
+        return out
+
+    def validate(self) -> None:
+        # every map is an energy map; caged points are stable points, so caging needs equilibrium
+        if not self.energy:
+            raise ModelInputError("outputs: energy cannot be off (every map is an energy map)")
+        if self.caging and not self.equilibrium:
+            raise ModelInputError("outputs: caging needs equilibrium (a caged point is stable)")
+
 
 # Accepted accuracy settings. A smaller step would take more than pi / 1e-6 = 3e6 path
 # evaluations per point (a practical hang); a root tolerance below 1e-15 is below float
@@ -179,4 +223,35 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         unsupported = set(effects.names_on()) - IMPLEMENTED_EFFECTS
         if unsupported:
             raise ModelInputError(f"effects not implemented yet: {', '.join(sorted(unsupported))}")
+        if effects.joint_springs:
+            validate_springs(design, command, limits, effects)
 
+
+
+def validate_springs(design: Design, command: Command, limits: Limits, effects: Effects) -> None:
+    """Joint springs weaker than the tendon over the whole joint range (model-notes D13): then
+    the tendon still closes both joints everywhere and the closing sequence (MODEL 4) holds."""
+    for name in ("spring_k1", "spring_k2"):
+        value = getattr(effects, name)
+        if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+            raise ModelInputError(f"K{name[-1]} (joint_springs) must be >= 0, got {value!r}")
+    tension = min(command.f_left, command.f_right)
+    if tension <= 0:
+        raise ModelInputError("joint_springs: both tendon tensions must be > 0 (a slack finger "
+                              "would be opened by its springs)")
+    span2 = limits.theta2_max - limits.theta2_min
+    for k, span, radius, joint in ((effects.spring_k1, math.pi, design.r1, "K1 pi < F r1"),
+                                   (effects.spring_k2, span2, design.r2,
+                                    "K2 (theta2_max - theta2_min) < F r2")):
+        if not k * span < tension * radius:
+            raise ModelInputError(f"joint_springs: the springs must be weaker than the tendon "
+                                  f"over the joint range ({joint}), got K = {k!r}, "
+                                  f"F = {tension!r}, r = {radius!r}")
+
+
+def validate_scene(effects: Effects, outputs: Outputs) -> None:
+    """Combinations of effects and outputs that are not implemented (one-line ModelInputError)."""
+    outputs.validate()
+    if outputs.forces and effects.joint_springs:
+        raise ModelInputError("forces with joint_springs are not implemented (the contact "
+                              "forces of MODEL 5.6 leave the springs out)")

@@ -306,7 +306,7 @@ def save_maps(scene: Scene, start: int, stop: int, directory: Path) -> list[str]
             m = maps.compute_map(
                 Design(**{k: p[k] for k in ("l1", "l2", "r1", "r2", "w")}),
                 Part(r=p["r"], mu=p["mu"]), scene.commands[p["command"]], Grid(h=scene.h),
-                scene.limits, scene.accuracy, scene.effects)
+                scene.limits, scene.accuracy, scene.effects, outputs=scene.outputs)
             mapfile.write_map(path, m, {"config_hash": scene.config_hash})
     return names
 

@@ -37,7 +37,7 @@ from . import __version__
 from .batch import CELL_COLUMNS, part_lattice_columns
 from .maps import BYTES_PER_POINT, grid_index_bounds
 from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
-                    Command, Design, Effects, Grid, Limits, ModelInputError, Part,
+                    Command, Design, Effects, Grid, Limits, ModelInputError, Outputs, Part,
                     validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
@@ -61,7 +61,9 @@ LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
 ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
 TRAJECTORY_METHODS = ("discrete", "continuous")  # model.TRAJECTORY_METHODS
 EFFECT_KEYS = ("friction", "tip_contact", "joint_springs", "finger_collision")
-OUTPUT_KEYS = ("save_maps", "manipulation", "scenario_a_top_k")
+MAP_OUTPUT_KEYS = ("energy", "equilibrium", "caging", "forces")  # model.OUTPUT_NAMES
+OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k")
+SPRING_KEYS = ("K1", "K2")
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)
 RUN_KEYS = ("sub_chunk_cells",)
 
@@ -102,6 +104,7 @@ class Scene:
     effects: Effects
     save_maps: tuple = ()   # of dicts with STORE_DIMS keys (+ "command" index)
     sub_chunk_cells: int | None = None
+    outputs: Outputs = Outputs()  # outputs.energy/equilibrium/caging/forces (MODEL 9)
     manipulation: bool = False   # outputs.manipulation: Scenarios A and B of MODEL 10
     scenario_a_top_k: int = 10   # outputs.scenario_a_top_k: Scenario A's candidates per part
     source: dict = field(default_factory=dict, compare=False)  # the config as written
@@ -193,9 +196,20 @@ class Scene:
                           root_tol=self.accuracy.root_tol, trajectory=self.accuracy.trajectory),
             effects={k: getattr(self.effects, k) for k in EFFECT_KEYS},
             item_order=list(ITEM_ORDER),
-            # only when on, so that the hashes of configs without it stay what they were
-            **({"outputs": {"manipulation": True}} if self.manipulation else {}),
+            # only when on / not the default, so that the hashes of configs without them stay
+            # what they were (and stores of different scenes never merge)
+            **({"joint_springs": dict(K1=self.effects.spring_k1, K2=self.effects.spring_k2)}
+               if self.effects.joint_springs else {}),
+            **self._resolved_outputs(),
         )
+
+    def _resolved_outputs(self) -> dict:
+        out = {}
+        if self.manipulation:
+            out["manipulation"] = True
+        if self.outputs != Outputs():
+            out["on"] = self.outputs.names_on()
+        return {"outputs": out} if out else {}
 
     @property
     def config_hash(self) -> str:
@@ -355,6 +369,18 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 
     eff = _mapping(raw.get("effects", {}), "effects", EFFECT_KEYS)
     flags = {}
+    springs = eff.get("joint_springs", False)
+    if isinstance(springs, dict):  # joint_springs: {K1: .., K2: ..} switches the effect on
+        spring = _mapping(springs, "effects.joint_springs", SPRING_KEYS, required=SPRING_KEYS)
+        for key in SPRING_KEYS:
+            value = _number(spring[key], f"effects.joint_springs.{key}")
+            if not value >= 0:
+                raise SceneError(f"effects.joint_springs.{key}: must be >= 0, got {value!r}")
+            flags["spring_k" + key[1]] = value
+        eff = {**eff, "joint_springs": True}
+    elif springs is True:
+        raise SceneError("effects.joint_springs: give the stiffnesses, e.g. "
+                         "joint_springs: {K1: 0.01, K2: 0.01}")
     for k in EFFECT_KEYS:
         v = eff.get(k, k == "friction")
         if not isinstance(v, bool):
@@ -382,6 +408,22 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     _check_coarse(values, h)
 
     outputs = _mapping(raw.get("outputs", {}) or {}, "outputs", OUTPUT_KEYS)
+    map_outputs = {}
+    for k in MAP_OUTPUT_KEYS:
+        v = outputs.get(k, getattr(Outputs(), k))
+        if not isinstance(v, bool):
+            raise SceneError(f"outputs.{k}: must be true or false, got {v!r}")
+        map_outputs[k] = v
+    map_outputs = Outputs(**map_outputs)
+    try:
+        map_outputs.validate()
+    except ModelInputError as exc:
+        raise SceneError(str(exc)) from None
+    if not map_outputs.caging:
+        # the store's summaries are caging summaries (Lambda ranks the designs); an energy-only
+        # map is `sweep map --outputs energy`
+        raise SceneError("outputs.caging: a sweep stores caging summaries and needs it on; for "
+                         "energy-only maps use `sweep map --outputs energy`")
     save_maps = _save_maps(outputs.get("save_maps", []) or [], values, len(commands))
     manipulation = outputs.get("manipulation", False)
     if not isinstance(manipulation, bool):
@@ -399,6 +441,15 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
                 raise SceneError(f"outputs.manipulation: every palm width must be a multiple of "
                                  f"2h = {2 * h:g} (poses are shared lattice points); w = {w:g}")
 
+    if effects.joint_springs:
+        if any((c.f_left, c.f_right) != (1.0, 1.0) for c in commands):
+            # the sweep solves one finger field for both fingers at unit tension
+            raise SceneError("effects.joint_springs: a sweep with springs needs the command "
+                             "f_left = f_right = 1 (scale K1, K2 instead)")
+        if map_outputs.forces or manipulation:
+            raise SceneError("effects.joint_springs: forces and the manipulation metric leave "
+                             "the springs out; switch them off")
+
     run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
     sub = run.get("sub_chunk_cells")
     if sub is not None and (isinstance(sub, bool) or not isinstance(sub, int) or sub < 1):
@@ -406,7 +457,8 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 
     return Scene(name=name, values=values, commands=commands, h=h, bounds=bounds, limits=limits,
                  accuracy=accuracy, effects=effects, save_maps=save_maps, sub_chunk_cells=sub,
-                 manipulation=manipulation, scenario_a_top_k=top_k, source=_jsonable(raw))
+                 outputs=map_outputs, manipulation=manipulation, scenario_a_top_k=top_k,
+                 source=_jsonable(raw))
 
 
 # ---------------------------------------------------------------------------------------------

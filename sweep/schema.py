@@ -157,7 +157,20 @@ SUMMARY = (
     Field("n_caged_points", "int32", (),
           "grid points that are caged themselves (stable, contained, L_open < 2r)", _COUNT,
           "caging"),
+    # Only with the finger_collision effect (EFFECT_SUMMARY): absent from other maps and stores.
+    Field("n_collision_changed", "int32", (),
+          "feasible grid points where finger_collision changed a finger's configuration "
+          "(the fingers met while closing, model-notes D14)", _COUNT),
 )
+
+#: Summary fields that exist only when an effect is on (maps and stores of other scenes keep
+#: the fields they always had).
+EFFECT_SUMMARY = {"n_collision_changed": "finger_collision"}
+
+
+def summary_field_on(name: str, effects_on) -> bool:
+    """Whether a summary field is written for a scene with these effects on (names)."""
+    return name not in EFFECT_SUMMARY or EFFECT_SUMMARY[name] in effects_on
 SUMMARY_FIELDS = tuple(f.name for f in SUMMARY)
 SUMMARY_INDEX = {name: k for k, name in enumerate(SUMMARY_FIELDS)}
 COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")

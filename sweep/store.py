@@ -32,7 +32,7 @@ from .h5 import (atomic_file, iter_names, provenance, read_json_attr, set_root_a
                  write_coordinate, write_variable)
 from .manipulation import PARAMETER_NAMES, ManipulationChunk
 from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
-from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS
+from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
@@ -200,7 +200,8 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
                                ("command",), dict(long_name=f"tendon tension of the "
                                                   f"{k[2:]} finger", units="force (model units)"))
         for name in SUMMARY_FIELDS:
-            write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
+            if summary_field_on(name, scene.effects.names_on()):
+                write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
         if manipulation is not None:
             _write_manipulation(f, scene, manipulation)
         attrs = dict(
@@ -210,6 +211,9 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
             frozen_config=scene.frozen(),
             effects_on=" ".join(scene.effects.names_on()) or "none",
             effects={k: bool(v) for k, v in scene.resolved()["effects"].items()},
+            # absent: the default outputs energy, equilibrium, caging (older stores too)
+            **({"outputs_on": " ".join(scene.outputs.names_on())}
+               if scene.outputs.names_on() != ["energy", "equilibrium", "caging"] else {}),
             grid_h=scene.h, grid_bounds=scene.bounds, grid_note=GRID_NOTE,
             theta2_min_deg=scene.limits.theta2_min_deg, theta2_max_deg=scene.limits.theta2_max_deg,
             reconfig_step=scene.accuracy.reconfig_step, root_tol=scene.accuracy.root_tol,

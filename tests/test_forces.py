@@ -262,7 +262,8 @@ def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s
     from sweep.kernels.finger import sticks_on_lower_stop
 
     finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)
-    assert sticks_on_lower_stop(k2, t2, finger) == lower_stop_admissible(t2, k2, l1, r1, r2, mu_s)
+    assert sticks_on_lower_stop(k2, 0.0, t2, finger, None) == \
+        lower_stop_admissible(t2, k2, l1, r1, r2, mu_s)
 
 
 def test_forces_match_the_linear_programme_of_the_slow_reference():

@@ -224,17 +224,20 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
                        cells[c, 5], theta2_min, theta2_max)
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
                            theta2_max, solver, effects, out, manip):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
     manip: a ManipulationOut with one row per cell, or None."""
-    # locals: prange cannot capture a record of blocks (read by name: unpacking a record that
-    # holds a record fails in parfor lowering)
-    tip = effects.tip_contact
-    springs = effects.joint_springs
-    collision = effects.finger_collision
-    trajectory = effects.trajectory
+    tip, springs, collision, trajectory = effects  # prange captures blocks only as arguments
+    summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, tip, springs, collision, trajectory, out, manip)
+
+
+@njit(cache=True, parallel=True)
+def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, tip, springs, collision, trajectory, out,
+                              manip):
     for c in prange(cells.shape[0]):
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision, trajectory), ws, steps, ncols[c],

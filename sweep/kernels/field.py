@@ -30,9 +30,9 @@ from ..model import (
     VERTEX_POINT,
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
-from .finger import OVERLAP, finger_energy, finger_statics, solve_finger
+from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   tip_clearance)
+                   resolve_collisions, tip_clearance)
 from .records import EffectBlocks, FingerState
 from .streamline import streamline_ends
 
@@ -54,6 +54,7 @@ S_INFEASIBLE = SUMMARY_INDEX["n_infeasible"]
 S_UNREACHED = SUMMARY_INDEX["n_unreached"]
 S_EJECT = SUMMARY_INDEX["n_eject"]
 S_CAGED_POINTS = SUMMARY_INDEX["n_caged_points"]
+S_COLLISION_CHANGED = SUMMARY_INDEX["n_collision_changed"]
 SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edges)
 
 
@@ -74,18 +75,30 @@ def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
         fingers.tip_overlap[side, j, i] = s.tip_overlap
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True)
 def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    # locals: prange cannot capture a record of blocks (read by name: unpacking a record that
-    # holds a record fails in parfor lowering)
-    tip = effects.tip_contact
-    springs = effects.joint_springs
-    collision = effects.finger_collision
-    trajectory = effects.trajectory
+    tip, springs, collision, trajectory = effects
+    finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, trajectory,
+                           fingers, side)
+
+
+@njit(cache=True, parallel=True)
+def finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, trajectory,
+                           fingers, side):
+    """finger_field's parallel loop. The blocks come as arguments: a prange loop cannot capture
+    a record of blocks, nor a record unpacked from one (parfor lowering finds no definition of
+    it, numba 0.68.1), but it can capture a record that is an argument."""
     for j in prange(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver,
-                   EffectBlocks(tip, springs, collision, trajectory), fingers, side)
+        finger_row_of_blocks(j, dxs, dys[j], finger, solver, tip, springs, collision,
+                             trajectory, fingers, side)
+
+
+@njit(cache=True)
+def finger_row_of_blocks(j, dxs, dy, finger, solver, tip, springs, collision, trajectory,
+                         fingers, side):
+    finger_row(j, dxs, dy, finger, solver, EffectBlocks(tip, springs, collision, trajectory),
+               fingers, side)
 
 
 @njit(cache=True)
@@ -157,9 +170,13 @@ def finger_statics_at(fingers, side, j, i, finger):
 
 
 @njit(cache=True)
-def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_point):
+def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch, every_point,
+                equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
     `forces` is not None) along row j.
+
+    `equilibrium` False skips the part-equilibrium test and `caging` False the cage geometry
+    (containment, L_open, crossing) at every point: those fields are left False / NaN / 0.
 
     The finger arrays are overwritten with fill values (-1 / NaN / False) at infeasible points.
     With every_point False (summaries only), containment, L_open and crossing are computed only
@@ -190,14 +207,17 @@ def outcome_row(j, xs, y, finger, hand, fingers, outs, forces, scratch, every_po
         outs.energy[j, i] = (
             finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
             + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
+        if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
+            outs.energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
+                                  + spring_energy(a1r, a2r, springs, finger.theta2_min))
         eq = False
-        if c == REACHED:
+        if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
                                      a1r, a2r)
             outs.equilibrium[j, i] = eq
         outs.l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
-        wants_geometry = eq or every_point or (forces is not None and c == REACHED)
+        wants_geometry = caging and (eq or every_point or (forces is not None and c == REACHED))
         if forces is not None:
             forces.geometric_cage_score[j, i] = 0.0
         if not wants_geometry:
@@ -382,11 +402,25 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
 def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
-                     every_point):
+                     every_point, equilibrium=True, caging=True):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
-    summary row. Serial: one map's outcomes cost a few percent of its finger fields."""
+    summary row. Serial: one map's outcomes cost a few percent of its finger fields.
+
+    Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
+    equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
+    Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
+    point, so a branch costs nothing measurable (docs/effects.md)."""
     scratch = np.empty(SCRATCH_ANGLES)
+    n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
+                                             effects.finger_collision)
     for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], finger, hand, fingers, outs, forces, scratch, every_point)
-    score_sum = trajectories(outs, hand.h, stack, effects.trajectory)
+        outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, fingers, outs, forces,
+                    scratch, every_point, equilibrium, caging)
+    if caging:
+        score_sum = trajectories(outs, hand.h, stack, effects.trajectory)
+    else:
+        outs.end_state[:, :] = END_NONE
+        outs.end_index[:, :] = -1
+        score_sum = np.nan  # no trajectories: Lambda does not exist
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
+    summary[S_COLLISION_CHANGED] = n_collision_changed

@@ -40,10 +40,24 @@ MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e
 # `multiplier` is a tangential multiplier mu (|mu| <= mu_s); mu_s is the friction coefficient.
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def proximal_torque_balance(k2, t2, finger, multiplier):
-    """g(mu) = r1 k2 - r2 (l1 cos t2 + k2) + mu r2 l1 sin t2 (MODEL 5.3), for a given multiplier."""
-    return (finger.r1 * k2 - finger.r2 * (finger.l1 * math.cos(t2) + k2)
-            + multiplier * finger.r2 * finger.l1 * math.sin(t2))
+def joint_torques(t1, t2, finger, springs):
+    """Net closing torques of the joints per unit tendon tension (MODEL 5.1, 6): (r1, r2) in the
+    paper's model; with the joint_springs effect the springs' K_i (t_i - theta_io) / F are
+    taken off (theta1_o = 0, theta2_o = theta2_min). `springs` is None or a JointSprings record;
+    the edge keeps both positive over the joint ranges (the tendon still closes the finger)."""
+    if springs is None:
+        return finger.r1, finger.r2
+    return (finger.r1 - springs.k1 / springs.tension * t1,
+            finger.r2 - springs.k2 / springs.tension * (t2 - finger.theta2_min))
+
+
+@njit(cache=True)
+def proximal_torque_balance(k2, t1, t2, finger, springs, multiplier):
+    """g(mu) = tau1 k2 - tau2 (l1 cos t2 + k2) + mu tau2 l1 sin t2 (MODEL 5.3), for a given
+    multiplier; tau = joint_torques (r1, r2 without springs)."""
+    tau1, tau2 = joint_torques(t1, t2, finger, springs)
+    return (tau1 * k2 - tau2 * (finger.l1 * math.cos(t2) + k2)
+            + multiplier * tau2 * finger.l1 * math.sin(t2))
 
 
 @njit(cache=True)
@@ -58,9 +72,11 @@ def friction_for_sticking(t2, mu_s):
 
 
 @njit(cache=True)
-def max_torque_balance(k2, t2, finger):
-    """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick."""
-    return proximal_torque_balance(k2, t2, finger, friction_for_sticking(t2, finger.mu_s))
+def max_torque_balance(k2, t1, t2, finger, springs):
+    """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick (tau2 > 0, so the
+    maximising multiplier has the sign of sin t2 with or without springs)."""
+    return proximal_torque_balance(k2, t1, t2, finger, springs,
+                                   friction_for_sticking(t2, finger.mu_s))
 
 
 @njit(cache=True)
@@ -70,7 +86,7 @@ def distal_lever(k2, t2, l1, multiplier):
 
 
 @njit(cache=True)
-def sticks_on_lower_stop(k2, t2, finger):
+def sticks_on_lower_stop(k2, t1, t2, finger, springs):
     """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
     holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
     positive lever L(mu). Since g(mu) = r1 k2 - r2 L(mu), that asks for L(mu) in (0, r1 k2 / r2];
@@ -78,7 +94,7 @@ def sticks_on_lower_stop(k2, t2, finger):
     multiplier that maximises g (minimises L) gives g >= 0. Testing L > 0 at that multiplier
     alone (the first rule) fails for mu_s > cot|t2|, about 11.4 at -5 deg (model-notes D10)."""
     mu_best = friction_for_sticking(t2, finger.mu_s)
-    if proximal_torque_balance(k2, t2, finger, mu_best) < 0.0:
+    if proximal_torque_balance(k2, t1, t2, finger, springs, mu_best) < 0.0:
         return False  # no multiplier gives g >= 0
     return k2 > 0.0
 
@@ -176,10 +192,10 @@ def distal_closes_after_proximal(dx, dy, t1, k1, finger):
 # Stick-slip and reconfiguration (MODEL 5)
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def path_events(t1, t2, k2, finger):
+def path_events(t1, t2, k2, finger, springs):
     """Bit mask of the reconfiguration events that hold at a state of the path (model-notes D4)."""
     events = 0
-    if max_torque_balance(k2, t2, finger) >= 0.0:
+    if max_torque_balance(k2, t1, t2, finger, springs) >= 0.0:
         events |= STICK
     if t2 >= finger.theta2_max - RANGE_TOL:
         events |= DISTAL_STOP
@@ -191,19 +207,19 @@ def path_events(t1, t2, k2, finger):
 
 
 @njit(cache=True)
-def path_event_mask_at(t1, dx, dy, finger):
+def path_event_mask_at(t1, dx, dy, finger, springs):
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    return path_events(t1, t2, k2, finger)
+    return path_events(t1, t2, k2, finger, springs)
 
 
 @njit(cache=True)
-def event_margin(event, t1, dx, dy, finger):
+def event_margin(event, t1, dx, dy, finger, springs):
     """(holds, margin) of one path event at t1; the margin is continuous in t1 and >= 0 where
     the event holds, so a bracketing root finder can interpolate it."""
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    holds = (path_events(t1, t2, k2, finger) & event) != 0
+    holds = (path_events(t1, t2, k2, finger, springs) & event) != 0
     if event == STICK:
-        margin = max_torque_balance(k2, t2, finger)
+        margin = max_torque_balance(k2, t1, t2, finger, springs)
     elif event == DISTAL_STOP:
         margin = t2 - (finger.theta2_max - RANGE_TOL)
     else:  # SLIP
@@ -212,7 +228,7 @@ def event_margin(event, t1, dx, dy, finger):
 
 
 @njit(cache=True)
-def event_crossing(event, lo, hi, dx, dy, finger, root_tol):
+def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol):
     """Where an event starts along the path: it holds at lo, not at hi (lo < hi).
 
     Safeguarded Illinois regula falsi on the event margin: every probe lies at least root_tol/2
@@ -221,8 +237,8 @@ def event_crossing(event, lo, hi, dx, dy, finger, root_tol):
     """
     if event == PROXIMAL_STOP:
         return 0.0
-    _, f_lo = event_margin(event, lo, dx, dy, finger)
-    _, f_hi = event_margin(event, hi, dx, dy, finger)
+    _, f_lo = event_margin(event, lo, dx, dy, finger, springs)
+    _, f_hi = event_margin(event, hi, dx, dy, finger, springs)
     kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
     for it in range(400):  # bounded: at worst every fourth probe halves the bracket
         width = hi - lo
@@ -232,7 +248,7 @@ def event_crossing(event, lo, hi, dx, dy, finger, root_tol):
         if it % 4 != 3 and f_lo != f_hi:
             x = hi - f_hi * width / (f_hi - f_lo)
             x = min(max(x, lo + 0.5 * root_tol), hi - 0.5 * root_tol)
-        holds, f_x = event_margin(event, x, dx, dy, finger)
+        holds, f_x = event_margin(event, x, dx, dy, finger, springs)
         if holds:
             lo = x
             f_lo = f_x
@@ -267,7 +283,7 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
         lo = t1_start - n * step
         if lo <= 0.0 or n == n_max:
             lo = 0.0
-        events = path_event_mask_at(lo, dx, dy, finger)
+        events = path_event_mask_at(lo, dx, dy, finger, effects.joint_springs)
         if events != 0:
             break
         hi = lo
@@ -275,7 +291,8 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     best_event = PROXIMAL_STOP
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
         if events & event:
-            t_cross = event_crossing(event, lo, hi, dx, dy, finger, solver.root_tol)
+            t_cross = event_crossing(event, lo, hi, dx, dy, finger, effects.joint_springs,
+                                     solver.root_tol)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_event = event
@@ -292,16 +309,17 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
 def settle(first, dx, dy, finger, solver, effects):
     """Apply the stick-slip cases to a first contact: the finger's final FingerState."""
     mode = first.mode
+    springs = effects.joint_springs
     if mode == TWO_PHALANX:
-        if max_torque_balance(first.k2, first.t2, finger) >= 0.0:  # cases 1 and 3
+        if max_torque_balance(first.k2, first.t1, first.t2, finger, springs) >= 0.0:  # 1 and 3
             return first
         return reconfigure(dx, dy, first.t1, finger, solver, effects)
     if mode == DISTAL_ON_LOWER_STOP:
-        if sticks_on_lower_stop(first.k2, first.t2, finger):
+        if sticks_on_lower_stop(first.k2, first.t1, first.t2, finger, springs):
             return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
         return reconfigure(dx, dy, first.t1, finger, solver, effects)
     if mode == DISTAL_ON_PROXIMAL_STOP:
-        if max_torque_balance(first.k2, first.t2, finger) >= 0.0:
+        if max_torque_balance(first.k2, first.t1, first.t2, finger, springs) >= 0.0:
             return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
         return reconfigure(dx, dy, first.t1, finger, solver, effects)
     return first
@@ -324,6 +342,15 @@ def solve_finger(dx, dy, finger, solver, effects):
 def finger_energy(t1, t2, r1, r2, tension, theta2_min):
     """V = -F [r1 (t1 - theta1_o) + r2 (t2 - theta2_o)] with theta1_o = 0, theta2_o = theta2_min."""
     return -tension * (r1 * t1 + r2 * (t2 - theta2_min))
+
+
+@njit(cache=True)
+def spring_energy(t1, t2, springs, theta2_min):
+    """Energy stored in the joint springs, 1/2 K1 t1^2 + 1/2 K2 (t2 - theta2_min)^2: the
+    potential of the torques K_i (t_i - theta_io) (MODEL 6, 9; model-notes D13); 0 when off."""
+    if springs is None:
+        return 0.0
+    return 0.5 * springs.k1 * t1 * t1 + 0.5 * springs.k2 * (t2 - theta2_min) ** 2
 
 
 @njit(cache=True)
@@ -371,19 +398,19 @@ def normal_forces(state, finger):
     if mode == TWO_PHALANX:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t2, finger, 0.0)
+        g0 = proximal_torque_balance(k2, t1, t2, finger, None, 0.0)
         mu2 = 0.0
         if g0 < 0.0 and math.sin(t2) != 0.0:
             mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu_s, mu_s)
         f2 = r2 / k2
         f1 = 0.0
         if k1 > RANGE_TOL:
-            f1 = max(proximal_torque_balance(k2, t2, finger, mu2) / (k1 * k2), 0.0)
+            f1 = max(proximal_torque_balance(k2, t1, t2, finger, None, mu2) / (k1 * k2), 0.0)
         return f1, f2, mu2
     if mode == DISTAL_ONLY:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t2, finger, 0.0)
+        g0 = proximal_torque_balance(k2, t1, t2, finger, None, 0.0)
         s = math.sin(t2)
         if t2 <= finger.theta2_min + RANGE_TOL:
             # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; the proximal balance

@@ -7,7 +7,7 @@ import math
 
 from numba import njit
 
-from ..model import DISTAL_ONLY, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX
+from ..model import DISTAL_ONLY, FREE, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX
 
 TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or segments touch
 
@@ -206,3 +206,116 @@ def tip_clearance(left, right):
     opening = min(opening, point_segment_distance(trx, try_, jlx, jly, blx, bly))
     opening = min(opening, point_segment_distance(trx, try_, blx, bly, tlx, tly))
     return opening
+
+
+# ---------------------------------------------------------------------------------------------
+# finger_collision (MODEL 9, model-notes D14): the fingers close together and stop where they
+# first meet
+# ---------------------------------------------------------------------------------------------
+MAX_PROGRESS_STEPS = 10_000_000  # defence in depth, as for the reconfiguration path
+
+
+@njit(cache=True)
+def closing_path_angles(progress, t1_end, t2_end, theta2_min):
+    """(t1, t2) of a finger at closing progress p along the path to (t1_end, t2_end): the
+    rigid sweep t1 = p (distal on its lower stop), then the distal closes about B,
+    t2 = theta2_min + (p - t1_end); p is the joint travel t1 + (t2 - theta2_min)."""
+    if progress <= t1_end:
+        return progress, theta2_min
+    return t1_end, min(theta2_min + (progress - t1_end), t2_end)
+
+
+@njit(cache=True)
+def paths_cross_at(progress, t1l, t2l, t1r, t2r, finger, w):
+    a1l, a2l = closing_path_angles(progress, t1l, t2l, finger.theta2_min)
+    a1r, a2r = closing_path_angles(progress, t1r, t2r, finger.theta2_min)
+    return fingers_cross(finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w),
+                         finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w))
+
+
+@njit(cache=True)
+def meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision):
+    """The last shared progress before the fingers' closing paths first meet (within
+    collision.tol), or -1 if they do not meet on the way to their configurations (or already
+    touch when open)."""
+    th = finger.theta2_min
+    p_end = max(t1l + (t2l - th), t1r + (t2r - th))
+    if paths_cross_at(0.0, t1l, t2l, t1r, t2r, finger, w):
+        return -1.0
+    step = collision.progress_step
+    n_max = int(min(math.ceil(p_end / step), MAX_PROGRESS_STEPS)) + 1
+    lo = 0.0
+    for n in range(1, n_max + 1):
+        hi = min(n * step, p_end)
+        if paths_cross_at(hi, t1l, t2l, t1r, t2r, finger, w):
+            for _ in range(200):  # bisection, bounded
+                if hi - lo <= collision.tol:
+                    break
+                mid = 0.5 * (lo + hi)
+                if paths_cross_at(mid, t1l, t2l, t1r, t2r, finger, w):
+                    hi = mid
+                else:
+                    lo = mid
+            return lo
+        lo = hi
+        if hi >= p_end:
+            break
+    return -1.0
+
+
+@njit(cache=True)
+def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
+    """(changed, mode, t1, t2, k1, k2) of a finger stopped by the other at `progress` of its
+    closing path. A finger whose path ends first is at rest (the other's stop): unchanged. A
+    finger stopped in its rigid sweep has touched nothing yet (FREE); stopped while its distal
+    closes it keeps its proximal contact (PROXIMAL_ONLY) or has none (FREE)."""
+    if progress >= t1 + (t2 - theta2_min):
+        return False, mode, t1, t2, k1, k2
+    a1, a2 = closing_path_angles(progress, t1, t2, theta2_min)
+    if progress >= t1 and k1 > 0.0 and (mode == TWO_PHALANX or mode == PROXIMAL_ONLY):
+        return True, PROXIMAL_ONLY, a1, a2, k1, 0.0
+    return True, FREE, a1, a2, 0.0, 0.0
+
+
+@njit(cache=True)
+def resolve_collisions(ys, finger, w, fingers, collision):
+    """Apply finger_collision to solved finger fields in place; returns the number of points
+    where a finger's configuration changed (0 when the effect is off: None, compiled out).
+
+    Only points whose fingers cross in their final configurations are re-run: elsewhere the
+    fingers are taken not to have met on the way (model-notes D14)."""
+    if collision is None:
+        return 0
+    n_changed = 0
+    th = finger.theta2_min
+    for j in range(ys.shape[0]):
+        for i in range(fingers.mode.shape[2]):
+            ml = fingers.mode[0, j, i]
+            mr = fingers.mode[1, j, i]
+            if ml < 0 or mr < 0:  # the part overlaps a finger's joint: infeasible
+                continue
+            t1l = fingers.t1[0, j, i]
+            t2l = fingers.t2[0, j, i]
+            t1r = fingers.t1[1, j, i]
+            t2r = fingers.t2[1, j, i]
+            if not fingers_cross(finger_polyline(0, t1l, t2l, finger.l1, finger.l2, w),
+                                 finger_polyline(1, t1r, t2r, finger.l1, finger.l2, w)):
+                continue
+            p = meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
+            if p < 0.0:
+                continue
+            changed = False
+            for side in range(2):
+                c, m, a1, a2, k1, k2 = stopped_finger(
+                    p, fingers.mode[side, j, i], fingers.t1[side, j, i], fingers.t2[side, j, i],
+                    fingers.k1[side, j, i], fingers.k2[side, j, i], th)
+                if c:
+                    changed = True
+                    fingers.mode[side, j, i] = m
+                    fingers.t1[side, j, i] = a1
+                    fingers.t2[side, j, i] = a2
+                    fingers.k1[side, j, i] = k1
+                    fingers.k2[side, j, i] = k2
+            if changed:
+                n_changed += 1
+    return n_changed

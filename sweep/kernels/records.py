@@ -59,6 +59,27 @@ NO_EFFECTS = EffectBlocks(None, None, None, None)
 
 
 
+class JointSprings(NamedTuple):
+    """The joint_springs effect (MODEL 6, 9): torsion springs K1 at the proximal joint
+    (rest 0) and K2 at the distal joint (rest theta2_min), opposing the tendon.
+
+    `tension` is the tendon tension of the finger being solved: the statics work per unit
+    tension, so a finger's spring torque enters as K_i / tension (one block per finger)."""
+
+    k1: float
+    k2: float
+    tension: float
+
+
+class FingerCollision(NamedTuple):
+    """The finger_collision effect (MODEL 9, model-notes D14): the fingers close together with
+    a shared progress and stop where they first meet. The meeting is found by stepping the
+    progress (rad of joint travel) and bracketing it to `tol`."""
+
+    progress_step: float
+    tol: float
+
+
 class Hand(NamedTuple):
     """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
 

@@ -1,0 +1,163 @@
+"""The finger_collision effect (MODEL 9, model-notes D14): both fingers advance through their
+closing paths with a shared progress p = t1 + (t2 - theta2_min) and stop where they first meet;
+a finger whose path ends first is the other's stop.
+
+Cases worked by hand, a plain-Python reference of the rule (own segment geometry), and the
+map-level promise: no caged point has crossed fingers."""
+import math
+
+import numpy as np
+import pytest
+
+from sweep.kernels.part import meeting_progress, resolve_collisions, stopped_finger
+from sweep.kernels.records import FingerCollision, new_finger_arrays
+from sweep.maps import compute_map, kernel_records
+from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
+                         Limits, Part)
+
+TH2MIN, TH2MAX = math.radians(-5.0), math.radians(90.0)
+COLLISION = FingerCollision(0.01, 1e-12)
+
+
+def finger_record(l1, l2):
+    finger, _, _ = kernel_records(Design(l1, l2, 0.2, 0.14, 0.8), Part(0.4, 0.4), Limits(),
+                                  Accuracy(), Effects())
+    return finger
+
+
+# --- plain-Python reference of the rule ------------------------------------------------------
+def polyline(side, t1, t2, l1, l2, w):
+    s = 1.0 if side == 1 else -1.0
+    j = (s * w / 2, 0.0)
+    b = (j[0] + s * l1 * math.cos(t1), l1 * math.sin(t1))
+    t = (b[0] + s * l2 * math.cos(t1 + t2), b[1] + l2 * math.sin(t1 + t2))
+    return [j, b, t]
+
+
+def segments_meet(p, q, r, s):
+    def orient(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    d1, d2, d3, d4 = orient(r, s, p), orient(r, s, q), orient(p, q, r), orient(p, q, s)
+    return d1 * d2 <= 0 and d3 * d4 <= 0
+
+
+def cross(a, b):
+    return any(segments_meet(a[i], a[i + 1], b[k], b[k + 1]) for i in range(2) for k in range(2))
+
+
+def path(p, t1_end, t2_end):
+    return (p, TH2MIN) if p <= t1_end else (t1_end, min(TH2MIN + p - t1_end, t2_end))
+
+
+def reference_meeting(left, right, l1, l2, w, n=200_000):
+    """Finest scan of the shared progress for the first crossing (no bracketing tricks)."""
+    end = max(left[0] + left[1] - TH2MIN, right[0] + right[1] - TH2MIN)
+    for k in range(1, n + 1):
+        p = end * k / n
+        if cross(polyline(0, *path(p, *left), l1, l2, w), polyline(1, *path(p, *right), l1, l2, w)):
+            return p
+    return -1.0
+
+
+# --- case 1: two free fingers, mirror images: tip meets tip on the axis ---------------------
+def test_two_free_fingers_meet_tip_to_tip_on_the_axis():
+    # l1 = 2, l2 = 1.6, w = 0.8, both fingers sweep rigidly (t2 = -5 deg). By symmetry they
+    # first meet on x = 0, at the right finger's leftmost point. B_x = 0.4 + 2 cos p reaches 0
+    # only at p = acos(-0.2) = 101.5 deg, and past p = 95 deg the tip lies left of B, so the
+    # tips meet first: 0.4 + 2 cos p + 1.6 cos(p - 5 deg) = 0, solved here by bisection.
+    lo, hi = math.radians(95), math.radians(101.5)
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        if 0.4 + 2 * math.cos(mid) + 1.6 * math.cos(mid - math.radians(5)) > 0:
+            lo = mid
+        else:
+            hi = mid
+    p_star = lo
+    assert math.degrees(p_star) == pytest.approx(98.607, abs=0.001)  # 0.4 - 0.2993 - 0.1006
+    finger = finger_record(2.0, 1.6)
+    p = meeting_progress(math.pi, TH2MAX, math.pi, TH2MAX, finger, 0.8, COLLISION)
+    assert p == pytest.approx(p_star, abs=1e-9)
+    changed, mode, t1, t2, k1, k2 = stopped_finger(p, FREE, math.pi, TH2MAX, 0.0, 0.0, TH2MIN)
+    assert changed and mode == FREE and t1 == pytest.approx(p_star, abs=1e-9) and t2 == TH2MIN
+
+
+# --- case 2: a finger at rest is the other's stop ----------------------------------------------
+def test_a_finger_at_rest_stops_the_other_and_stays():
+    # Left finger in two-phalanx contact at t1 = 60 deg, t2 = 30 deg: its path ends at
+    # p = 60 + 35 = 95 deg. The right finger is free (path to t1 = pi, t2 = 90 deg). They first
+    # meet after p = 95 deg, so the left is at rest and unchanged; the right stops there.
+    l1, l2, w = 2.0, 1.6, 0.8
+    left = (math.radians(60), math.radians(30))
+    right = (math.pi, TH2MAX)
+    p_ref = reference_meeting(left, right, l1, l2, w)
+    assert p_ref > math.radians(95)
+    finger = finger_record(l1, l2)
+    p = meeting_progress(*left, *right, finger, w, COLLISION)
+    assert p == pytest.approx(p_ref, abs=1e-4)
+    assert not stopped_finger(p, TWO_PHALANX, *left, 1.0, 0.3, TH2MIN)[0]
+    changed, mode, t1, t2, _, _ = stopped_finger(p, FREE, *right, 0.0, 0.0, TH2MIN)
+    assert changed and mode == FREE
+    if p <= math.pi:  # still in its rigid sweep
+        assert (t1, t2) == pytest.approx((p, TH2MIN), abs=1e-12)
+
+
+# --- case 3: stopped while the distal closes: the proximal contact stays ----------------------
+def test_stopped_while_the_distal_closes_keeps_the_proximal_contact():
+    # A finger bound for two-phalanx contact at t1 = 1.0, t2 = 1.2 stopped at p = 1.5 has
+    # finished its rigid sweep (its proximal contact is made at p = 1.0) and its distal has
+    # turned 0.5 rad from -5 deg: proximal-only, t2 = -5 deg + 0.5 rad, distal contact lost.
+    changed, mode, t1, t2, k1, k2 = stopped_finger(1.5, TWO_PHALANX, 1.0, 1.2, 0.7, 0.3, TH2MIN)
+    assert changed and mode == PROXIMAL_ONLY
+    assert (t1, t2, k1, k2) == pytest.approx((1.0, TH2MIN + 0.5, 0.7, 0.0), abs=1e-15)
+    # stopped before its proximal contact: it touches nothing
+    changed, mode, t1, t2, k1, k2 = stopped_finger(0.8, TWO_PHALANX, 1.0, 1.2, 0.7, 0.3, TH2MIN)
+    assert changed and mode == FREE and (t1, t2, k1, k2) == (0.8, TH2MIN, 0.0, 0.0)
+
+
+def test_resolve_collisions_matches_the_reference_point_by_point():
+    # random final configurations, plain-Python rule vs the kernel
+    rng = np.random.default_rng(3)
+    l1, l2, w = 1.2, 0.8, 0.4
+    finger = finger_record(l1, l2)
+    n = 40
+    fingers = new_finger_arrays(2, 1, n)
+    fingers.mode[:] = FREE
+    fingers.k1[:] = 0.0
+    fingers.k2[:] = 0.0
+    fingers.tip_overlap[:] = False
+    fingers.t1[:] = rng.uniform(0.3, math.pi, size=(2, 1, n))
+    fingers.t2[:] = rng.uniform(TH2MIN, TH2MAX, size=(2, 1, n))
+    before = fingers.t1.copy(), fingers.t2.copy()
+    n_changed = resolve_collisions(np.array([1.0]), finger, w, fingers, COLLISION)
+    expected_changed = 0
+    for i in range(n):
+        left = (before[0][0, 0, i], before[1][0, 0, i])
+        right = (before[0][1, 0, i], before[1][1, 0, i])
+        crossed = cross(polyline(0, *left, l1, l2, w), polyline(1, *right, l1, l2, w))
+        new_l = (fingers.t1[0, 0, i], fingers.t2[0, 0, i])
+        new_r = (fingers.t1[1, 0, i], fingers.t2[1, 0, i])
+        if not crossed:
+            assert new_l == left and new_r == right
+            continue
+        expected_changed += 1
+        p = reference_meeting(left, right, l1, l2, w, n=20_000)
+        end_l, end_r = path(p, *left), path(p, *right)
+        # both at their configuration at the meeting, to the scan's resolution
+        assert new_l == pytest.approx(end_l, abs=3e-4) and new_r == pytest.approx(end_r, abs=3e-4)
+        assert not cross(polyline(0, *new_l, l1, l2, w), polyline(1, *new_r, l1, l2, w))
+    assert n_changed == expected_changed > 0
+
+
+@pytest.mark.parametrize("mu", [0.4, 0.0])
+def test_no_caged_point_has_crossed_fingers(mu):
+    design, part = Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, mu)
+    base = compute_map(design, part, grid=Grid(h=0.1), effects=Effects(friction=mu > 0))
+    m = compute_map(design, part, grid=Grid(h=0.1),
+                    effects=Effects(friction=mu > 0, finger_collision=True))
+    assert base.attrs["n_caged_crossed"] > 0 or mu == 0.0
+    assert m.attrs["n_caged_crossed"] == 0
+    assert "n_collision_changed" not in base.attrs
+    changed = (m.fields["theta1"] != base.fields["theta1"]) | \
+        (m.fields["theta2"] != base.fields["theta2"])
+    changed = changed.any(axis=0) & (base.fields["point_class"] != 0)
+    assert m.attrs["n_collision_changed"] == int(changed.sum()) > 0
