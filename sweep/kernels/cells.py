@@ -7,14 +7,13 @@ finger offset -i - s (model-notes D1). The offsets are the same floating-point n
 direct computation uses, so the maps are bitwise identical to `compute_map`'s. Each map then goes
 through the one map pipeline, `field.map_from_fingers`.
 """
-import math
-
 import numpy as np
 from numba import njit, prange
 
 from ..model import REACHED
 from .field import N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, map_from_fingers
-from .part import fingers_cross, part_contained, tip_clearance, touches_palm
+from .part import (fingers_cross, link_vectors, part_contained, polyline_from_links,
+                   tip_clearance, touches_palm)
 from .hull import convex_hull, inscribed_radius
 from .records import (
     EffectBlocks,
@@ -121,30 +120,18 @@ def shared_finger_links_and_statics(shared, finger):
     statics = np.empty((3, ny, nm))
     for j in range(ny):
         for m in range(nm):
-            t1 = shared.t1[0, j, m]
-            phi = t1 + shared.t2[0, j, m]
-            # the products finger_polyline forms, so world coordinates match it bit for bit
-            links[0, j, m] = finger.l1 * math.cos(t1)
-            links[1, j, m] = finger.l1 * math.sin(t1)
-            links[2, j, m] = finger.l2 * math.cos(phi)
-            links[3, j, m] = finger.l2 * math.sin(phi)
+            # what finger_polyline forms, so world coordinates match it bit for bit
+            l1c, l1s, l2c, l2s = link_vectors(shared.t1[0, j, m], shared.t2[0, j, m],
+                                              finger.l1, finger.l2)
+            links[0, j, m] = l1c
+            links[1, j, m] = l1s
+            links[2, j, m] = l2c
+            links[3, j, m] = l2s
             st = finger_statics_at(shared, 0, j, m, finger)
             statics[0, j, m] = 1.0 if st.determined else 0.0
             statics[1, j, m] = st.resultant_x
             statics[2, j, m] = st.resultant_y
     return links, statics
-
-
-@njit(cache=True)
-def world_polyline(links, j, m, side, w):
-    """finger_polyline from precomputed link vectors (same operations, same bits)."""
-    sign = 1.0 if side == 1 else -1.0
-    jx = sign * 0.5 * w
-    bx = jx + sign * links[0, j, m]
-    by = links[1, j, m]
-    tx = bx + sign * links[2, j, m]
-    ty = by + links[3, j, m]
-    return jx, 0.0, bx, by, tx, ty
 
 
 @njit(cache=True)
@@ -171,8 +158,10 @@ def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, ste
             # cheapest first: statics (precomputed), containment, then the opening
             if statics[0, j, src_l] == 0.0 or statics[0, j, src_r] == 0.0:
                 continue
-            left = world_polyline(links, j, src_l, 0, hand.w)
-            right = world_polyline(links, j, src_r, 1, hand.w)
+            left = polyline_from_links(0, hand.w, links[0, j, src_l], links[1, j, src_l],
+                                       links[2, j, src_l], links[3, j, src_l])
+            right = polyline_from_links(1, hand.w, links[0, j, src_r], links[1, j, src_r],
+                                        links[2, j, src_r], links[3, j, src_r])
             if not part_contained(x, y, left, right):
                 continue
             crossed = fingers_cross(left, right)

@@ -15,13 +15,27 @@ TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or seg
 @njit(cache=True)
 def finger_polyline(side, t1, t2, l1, l2, w):
     """World coordinates (Jx, Jy, Bx, By, Tx, Ty) of a finger; side 0 = left, 1 = right."""
+    l1c, l1s, l2c, l2s = link_vectors(t1, t2, l1, l2)
+    return polyline_from_links(side, w, l1c, l1s, l2c, l2s)
+
+
+@njit(cache=True)
+def link_vectors(t1, t2, l1, l2):
+    """The links as vectors in the finger's frame: l1 (cos t1, sin t1), l2 (cos phi, sin phi)."""
+    phi = t1 + t2
+    return l1 * math.cos(t1), l1 * math.sin(t1), l2 * math.cos(phi), l2 * math.sin(phi)
+
+
+@njit(cache=True)
+def polyline_from_links(side, w, l1c, l1s, l2c, l2s):
+    """finger_polyline from the link vectors l1 (cos t1, sin t1), l2 (cos phi, sin phi) in the
+    finger's frame (the sweep computes them once per shared field point). The left finger is
+    mirrored in x; sign * (l1 cos t1) equals (sign * l1) cos t1 exactly (sign = +-1)."""
     sign = 1.0 if side == 1 else -1.0
     jx = sign * 0.5 * w
-    bx = jx + sign * l1 * math.cos(t1)
-    by = l1 * math.sin(t1)
-    tx = bx + sign * l2 * math.cos(t1 + t2)
-    ty = by + l2 * math.sin(t1 + t2)
-    return jx, 0.0, bx, by, tx, ty
+    bx = jx + sign * l1c
+    tx = bx + sign * l2c
+    return jx, 0.0, bx, l1s, tx, l1s + l2s
 
 
 @njit(cache=True)
