@@ -53,7 +53,8 @@ def write_map(path: str | Path, m: EnergyMap, extra_attrs: dict | None = None) -
         write_coordinate(f, "finger", np.array(FINGER_NAMES), dict(long_name="finger"))
         for fld in POINT_FIELDS:  # the schema's order; only the outputs computed
             if fld.in_map_file and fld.name in m.fields:
-                write_variable(f, fld.name, m.fields[fld.name], fld.dims, fld.attrs())
+                write_variable(f, fld.name, m.fields[fld.name], fld.dims,
+                               fld.attrs(m.effects.names_on()))
         set_root_attrs(f, {**map_root_attrs(m), **(extra_attrs or {})})
     return path
 

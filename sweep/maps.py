@@ -19,6 +19,7 @@ from .kernels.records import (
     FingerArrays,
     FingerCollision,
     JointSprings,
+    TipContact,
     FingerModel,
     ForceArrays,
     Hand,
@@ -199,9 +200,13 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     if effects.finger_collision:
         # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
         collision = FingerCollision(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    if springs is None and collision is None and trajectory is None:
+    tip = None
+    if effects.tip_contact:
+        # the tip path is stepped and bracketed like the reconfiguration path (D15)
+        tip = TipContact(float(accuracy.reconfig_step), float(accuracy.root_tol))
+    if tip is None and springs is None and collision is None and trajectory is None:
         return finger, solver, NO_EFFECTS
-    return finger, solver, EffectBlocks(None, springs, collision, trajectory)
+    return finger, solver, EffectBlocks(tip, springs, collision, trajectory)
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).

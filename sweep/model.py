@@ -23,6 +23,10 @@ END_STATE_MEANINGS = ("none", "caged", "tip_prehension", "ejection", "stalled")
 # finger_mode: the contact a finger ends in (MODEL 4, 5)
 FREE, PROXIMAL_ONLY, TWO_PHALANX, DISTAL_ONLY, SLIPPED, VERTEX = 0, 1, 2, 3, 4, 5
 FINGER_MODE_MEANINGS = ("free", "proximal_only", "two_phalanx", "distal_only", "slipped", "vertex")
+# Only with the tip_contact effect (model-notes D15): the tip is the finger's only contact, or the
+# tip and a proximal edge contact. Files of scenes without the effect keep the six codes above.
+TIP_ONLY, PROXIMAL_TIP = 6, 7
+TIP_FINGER_MODE_MEANINGS = FINGER_MODE_MEANINGS + ("tip", "proximal_tip")
 
 # Per-map summary fields and per-point fields are declared in sweep.schema.
 
@@ -125,7 +129,7 @@ class Effects:
         return [k for k in EFFECT_NAMES if getattr(self, k)]
 
 
-IMPLEMENTED_EFFECTS = frozenset({"friction", "joint_springs", "finger_collision"})
+IMPLEMENTED_EFFECTS = frozenset({"friction", "tip_contact", "joint_springs", "finger_collision"})
 
 #: What a map may compute (MODEL 9). energy: V and the finger configurations (always);
 #: equilibrium: part equilibrium; caging: containment, L_open, trajectories, caging scores and
@@ -255,3 +259,6 @@ def validate_scene(effects: Effects, outputs: Outputs) -> None:
     if outputs.forces and effects.joint_springs:
         raise ModelInputError("forces with joint_springs are not implemented (the contact "
                               "forces of MODEL 5.6 leave the springs out)")
+    if outputs.forces and effects.tip_contact:
+        raise ModelInputError("forces with tip_contact are not implemented (the contact forces "
+                              "of MODEL 5.6 have no tip contacts; model-notes D15)")

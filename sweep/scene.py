@@ -450,6 +450,10 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
             raise SceneError("effects.joint_springs: forces and the manipulation metric leave "
                              "the springs out; switch them off")
 
+    if effects.tip_contact and (map_outputs.forces or manipulation):
+        raise SceneError("effects.tip_contact: forces and the manipulation metric have no tip "
+                         "contacts (model-notes D15); switch them off")
+
     run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
     sub = run.get("sub_chunk_cells")
     if sub is not None and (isinstance(sub, bool) or not isinstance(sub, int) or sub < 1):

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import END_STATE_MEANINGS, FINGER_MODE_MEANINGS, POINT_CLASS_MEANINGS
+from .model import (END_STATE_MEANINGS, FINGER_MODE_MEANINGS, POINT_CLASS_MEANINGS,
+                    TIP_FINGER_MODE_MEANINGS)
 
 LENGTH = "length (unitless)"
 MAP_DIMS = ("y", "x")
@@ -38,12 +39,15 @@ class Field:
     comment: str | None = None
     in_map_file: bool = True
 
-    def attrs(self) -> dict:
-        """CF attributes of the stored variable."""
+    def attrs(self, effects_on=()) -> dict:
+        """CF attributes of the stored variable (in a file of a scene with these effects on)."""
         out: dict = dict(long_name=self.long_name)
-        if self.flags is not None:
-            out.update(flag_values=np.arange(len(self.flags), dtype=np.int8),
-                       flag_meanings=" ".join(self.flags))
+        flags = self.flags
+        if self.name in EFFECT_FLAGS and EFFECT_FLAGS[self.name][0] in effects_on:
+            flags = EFFECT_FLAGS[self.name][1]
+        if flags is not None:
+            out.update(flag_values=np.arange(len(flags), dtype=np.int8),
+                       flag_meanings=" ".join(flags))
         if self.units is not None:
             out["units"] = self.units
         if self.fill is not None:
@@ -117,6 +121,10 @@ POINT_FIELDS = (
           "no contact at a joint, contacts + joints on a limit <= 2", "1", output="forces"),
 )
 POINT = {f.name: f for f in POINT_FIELDS}
+
+#: Categorical fields whose codes grow with an effect: (effect, meanings). Files of scenes without
+#: the effect keep the codes they always had.
+EFFECT_FLAGS = {"finger_mode": ("tip_contact", TIP_FINGER_MODE_MEANINGS)}
 FORCE_FIELDS = tuple(f.name for f in POINT_FIELDS if f.output == "forces")
 OUTPUTS = ("energy", "equilibrium", "caging", "forces")
 
@@ -183,8 +191,11 @@ def markdown_table() -> str:
              "declared once.", "", "## Per-point fields of a map file", "",
              "| name | dtype | dims | units | output | meaning |", "|---|---|---|---|---|---|"]
     for f in POINT_FIELDS:
-        meaning = f.long_name + (f" (codes: {', '.join(f'{k} {m}' for k, m in enumerate(f.flags))})"
-                                 if f.flags else "")
+        flags = EFFECT_FLAGS[f.name][1] if f.name in EFFECT_FLAGS else f.flags
+        meaning = f.long_name + (f" (codes: {', '.join(f'{k} {m}' for k, m in enumerate(flags))})"
+                                 if flags else "")
+        if f.name in EFFECT_FLAGS:
+            meaning += (f"; codes {len(f.flags)} and up only with `{EFFECT_FLAGS[f.name][0]}`")
         if not f.in_map_file:
             meaning += " (in memory only)"
         lines.append(f"| `{f.name}` | {f.dtype} | {', '.join(f.dims)} | {f.units or ''} | "

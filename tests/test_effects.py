@@ -121,6 +121,8 @@ def test_map_flags_record_outputs_and_effects(tmp_path):
     (["--outputs", "energy", "--plot", "x.png"], "needs the caging output"),
     (["--effects", "friction,joint_springs", "--K1", "0.01", "--K2", "0.01", "--forces"],
      "forces with joint_springs are not implemented"),
+    (["--effects", "friction,tip_contact", "--forces"],
+     "forces with tip_contact are not implemented"),
 ])
 def test_map_refuses_bad_scene_flags_before_writing(tmp_path, flags, message):
     out = tmp_path / "m.h5"

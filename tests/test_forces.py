@@ -197,7 +197,8 @@ def test_more_friction_never_unsticks_a_distal_contact_on_its_lower_stop():
     phi = t1 + TH2MIN
     dx = l1 * math.cos(t1) + k2 * math.cos(phi) - r * math.sin(phi)
     dy = l1 * math.sin(t1) + k2 * math.sin(phi) + r * math.cos(phi)
-    assert closing(dx, dy, l1, l2, r, TH2MIN, TH2MAX)[0] == 6  # DISTAL_ON_LOWER_STOP
+    from sweep.kernels.finger import DISTAL_ON_LOWER_STOP
+    assert closing(dx, dy, l1, l2, r, TH2MIN, TH2MAX)[0] == DISTAL_ON_LOWER_STOP
     r1, r2 = 0.2, 0.12
     g0 = r1 * k2 - r2 * (l1 * math.cos(TH2MIN) + k2)
     assert g0 < 0  # friction is needed to stick

@@ -170,8 +170,8 @@ def finger_statics_at(fingers, side, j, i, finger):
 
 
 @njit(cache=True)
-def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch, every_point,
-                equilibrium, caging):
+def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scratch,
+                every_point, equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
     `forces` is not None) along row j.
 
@@ -213,7 +213,7 @@ def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch,
         eq = False
         if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
-                                     a1r, a2r)
+                                     a1r, a2r, finger.l1, finger.l2, tip)
             outs.equilibrium[j, i] = eq
         outs.l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
@@ -414,7 +414,8 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
                                              effects.finger_collision)
     for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, fingers, outs, forces,
+        outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
+                    fingers, outs, forces,
                     scratch, every_point, equilibrium, caging)
     if caging:
         score_sum = trajectories(outs, hand.h, stack, effects.trajectory)

@@ -1,8 +1,9 @@
 """One finger: which configuration it reaches and what it exerts (MODEL 4, 5, 6).
 
-Split in two so the sweep can reuse work: `closing_contact` depends on geometry only
-(l1, l2, r, joint limits); `settle` adds the stick-slip decisions and the reconfiguration path,
-which depend on the pulley radii and friction. `solve_finger` is both in sequence.
+Split in two: `closing_contact` depends on geometry only (l1, l2, r, joint limits); `settle`
+adds the stick-slip decisions and the paths of `kernels.path`, which depend on the pulley radii and
+friction. `solve_finger` is both in sequence. With the tip_contact effect (model-notes D15) a
+vertex strike is settled too (`settle_vertex`), by the statics of `kernels.statics`.
 
 Right-finger frame throughout (`d = p - J`); the left finger calls the same code with `d` mirrored.
 Parameters come as records (`kernels.records`): `finger` is a FingerModel, `solver` the
@@ -12,7 +13,17 @@ import math
 
 from numba import njit
 
-from ..model import DISTAL_ONLY, FREE, PROXIMAL_ONLY, RANGE_TOL, SLIPPED, TWO_PHALANX, VERTEX
+from ..model import (
+    DISTAL_ONLY,
+    FREE,
+    PROXIMAL_ONLY,
+    PROXIMAL_TIP,
+    RANGE_TOL,
+    SLIPPED,
+    TIP_ONLY,
+    TWO_PHALANX,
+    VERTEX,
+)
 from .geometry import (
     clamp,
     distal_tangency,
@@ -23,80 +34,31 @@ from .geometry import (
     vertex_entry,
     wrap_angle,
 )
+from .path import SLIP, follow_path, tip_columns, tip_on_disc
 from .records import FingerState, FingerStatics
+from .statics import (
+    BALANCE_NEGATIVE,
+    BALANCE_POSITIVE,
+    at_limit,
+    combine_balance,
+    distal_lever,
+    joint_torques,
+    max_torque_balance,
+    proximal_torque_balance,
+    sticks_on_lower_stop,
+    stop_balance,
+    vertex_contact_holds,
+)
 
 # Internal modes of a first contact that still has to be settled (never stored).
 OVERLAP = -1                   # the part overlaps the joint: the point is infeasible
-DISTAL_ON_LOWER_STOP = 6       # distal-only first contact of the rigid sweep (t2 = theta2_min)
-DISTAL_ON_PROXIMAL_STOP = 7    # distal-only contact with the proximal folded at t1 = pi
-
-# Events along the reconfiguration path (bit mask), in tie-break priority order (model-notes D4).
-STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
-MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e-6 rad
-
-
-# ---------------------------------------------------------------------------------------------
-# Statics (MODEL 5.2, 5.3): everything is decided with g = k1 k2 F1 / F, finite at k -> 0.
-# `multiplier` is a tangential multiplier mu (|mu| <= mu_s); mu_s is the friction coefficient.
-# ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def joint_torques(t1, t2, finger, springs):
-    """Net closing torques of the joints per unit tendon tension (MODEL 5.1, 6): (r1, r2) in the
-    paper's model; with the joint_springs effect the springs' K_i (t_i - theta_io) / F are
-    taken off (theta1_o = 0, theta2_o = theta2_min). `springs` is None or a JointSprings record;
-    the edge keeps both positive over the joint ranges (the tendon still closes the finger)."""
-    if springs is None:
-        return finger.r1, finger.r2
-    return (finger.r1 - springs.k1 / springs.tension * t1,
-            finger.r2 - springs.k2 / springs.tension * (t2 - finger.theta2_min))
-
-
-@njit(cache=True)
-def proximal_torque_balance(k2, t1, t2, finger, springs, multiplier):
-    """g(mu) = tau1 k2 - tau2 (l1 cos t2 + k2) + mu tau2 l1 sin t2 (MODEL 5.3), for a given
-    multiplier; tau = joint_torques (r1, r2 without springs)."""
-    tau1, tau2 = joint_torques(t1, t2, finger, springs)
-    return (tau1 * k2 - tau2 * (finger.l1 * math.cos(t2) + k2)
-            + multiplier * tau2 * finger.l1 * math.sin(t2))
-
-
-@njit(cache=True)
-def friction_for_sticking(t2, mu_s):
-    """The multiplier in [-mu_s, mu_s] that maximises g: friction opposing the slip."""
-    s = math.sin(t2)
-    if s > 0.0:
-        return mu_s
-    if s < 0.0:
-        return -mu_s
-    return 0.0
-
-
-@njit(cache=True)
-def max_torque_balance(k2, t1, t2, finger, springs):
-    """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick (tau2 > 0, so the
-    maximising multiplier has the sign of sin t2 with or without springs)."""
-    return proximal_torque_balance(k2, t1, t2, finger, springs,
-                                   friction_for_sticking(t2, finger.mu_s))
-
-
-@njit(cache=True)
-def distal_lever(k2, t2, l1, multiplier):
-    """Moment arm (per unit normal force) of a distal contact about the proximal joint."""
-    return l1 * math.cos(t2) + k2 - multiplier * l1 * math.sin(t2)
-
-
-@njit(cache=True)
-def sticks_on_lower_stop(k2, t1, t2, finger, springs):
-    """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
-    holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
-    positive lever L(mu). Since g(mu) = r1 k2 - r2 L(mu), that asks for L(mu) in (0, r1 k2 / r2];
-    L(0) = l1 cos t2 + k2 > 0 on the lower stop, so the set is not empty iff k2 > 0 and the
-    multiplier that maximises g (minimises L) gives g >= 0. Testing L > 0 at that multiplier
-    alone (the first rule) fails for mu_s > cot|t2|, about 11.4 at -5 deg (model-notes D10)."""
-    mu_best = friction_for_sticking(t2, finger.mu_s)
-    if proximal_torque_balance(k2, t1, t2, finger, springs, mu_best) < 0.0:
-        return False  # no multiplier gives g >= 0
-    return k2 > 0.0
+DISTAL_ON_LOWER_STOP = 16      # distal-only first contact of the rigid sweep (t2 = theta2_min)
+DISTAL_ON_PROXIMAL_STOP = 17   # distal-only contact with the proximal folded at t1 = pi
+# Vertex strikes, only with tip_contact (D15; without it they are VERTEX):
+JOINT_STRIKE = 18              # B strikes the part in the rigid sweep
+TIP_ON_LOWER_STOP = 19         # T strikes in the rigid sweep (t2 = theta2_min)
+TIP_ON_PROXIMAL_STOP = 20      # T strikes as the distal closes with t1 = pi
+PROXIMAL_THEN_TIP = 21         # T strikes as the distal closes after a proximal contact
 
 
 # ---------------------------------------------------------------------------------------------
@@ -120,7 +82,7 @@ def closing_contact(dx, dy, finger, effects):
     if k1 <= l1 + RANGE_TOL and in_range(t1, 0.0, math.pi):
         t1 = clamp(t1, 0.0, math.pi)
         k1 = clamp(k1, 0.0, l1)
-        return distal_closes_after_proximal(dx, dy, t1, k1, finger)
+        return distal_closes_after_proximal(dx, dy, t1, k1, finger, effects.tip_contact)
 
     # Otherwise the earliest of: distal tangency (3.3), a strike of B, a strike of T.
     best_t1 = math.inf
@@ -136,7 +98,7 @@ def closing_contact(dx, dy, finger, effects):
     t_b = vertex_entry(dx, dy, l1, 0.0, r)
     if in_range(t_b, 0.0, math.pi) and t_b < best_t1 - RANGE_TOL:
         best_t1 = t_b
-        mode = VERTEX
+        mode = strike_mode(effects.tip_contact, JOINT_STRIKE)
         k1_out = l1
         k2_out = 0.0
     rho_t = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(theta2_min))
@@ -144,7 +106,7 @@ def closing_contact(dx, dy, finger, effects):
     t_t = vertex_entry(dx, dy, rho_t, delta_t, r)
     if in_range(t_t, 0.0, math.pi) and t_t < best_t1 - RANGE_TOL:
         best_t1 = t_t
-        mode = VERTEX
+        mode = strike_mode(effects.tip_contact, TIP_ON_LOWER_STOP)
         k1_out = 0.0
         k2_out = l2
     if mode != FREE:
@@ -158,8 +120,18 @@ def closing_contact(dx, dy, finger, effects):
                            clamp(k2, 0.0, l2), False)
     t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
     if in_range(t2_tip, theta2_min, theta2_max):
-        return FingerState(VERTEX, t1, clamp(t2_tip, theta2_min, theta2_max), 0.0, l2, False)
+        return FingerState(strike_mode(effects.tip_contact, TIP_ON_PROXIMAL_STOP), t1,
+                           clamp(t2_tip, theta2_min, theta2_max), 0.0, l2, False)
     return FingerState(FREE, t1, theta2_max, 0.0, 0.0, False)
+
+
+@njit(cache=True)
+def strike_mode(tip, strike):
+    """The mode of a vertex strike: VERTEX in the paper's model (tip None), else the strike's
+    own internal mode, settled by settle_vertex (D15)."""
+    if tip is None:
+        return VERTEX
+    return strike
 
 
 @njit(cache=True)
@@ -175,8 +147,10 @@ def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
 
 
 @njit(cache=True)
-def distal_closes_after_proximal(dx, dy, t1, k1, finger):
-    """MODEL 4.3: after a proximal contact the distal closes about B with t1 fixed."""
+def distal_closes_after_proximal(dx, dy, t1, k1, finger, tip):
+    """MODEL 4.3: after a proximal contact the distal closes about B with t1 fixed. If the tip
+    strikes the part on the way, the paper's answer is kept and flagged (tip None) or the tip
+    is a contact (tip_contact, D15)."""
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
     if k2 <= finger.l2 + RANGE_TOL and in_range(t2, finger.theta2_min, finger.theta2_max):
         return FingerState(TWO_PHALANX, t1, clamp(t2, finger.theta2_min, finger.theta2_max), k1,
@@ -184,125 +158,91 @@ def distal_closes_after_proximal(dx, dy, t1, k1, finger):
     # The distal reaches its limit; the paper keeps this answer even if the tip passes through
     # the part on the way, which is flagged (MODEL 4.3, model-notes D3).
     t2_tip = tip_entry_about_distal_joint(dx, dy, t1, finger.l1, finger.l2, finger.r)
-    return FingerState(PROXIMAL_ONLY, t1, finger.theta2_max, k1, 0.0,
-                       in_range(t2_tip, finger.theta2_min, finger.theta2_max))
+    strikes = in_range(t2_tip, finger.theta2_min, finger.theta2_max)
+    if tip is not None and strikes:
+        return FingerState(PROXIMAL_THEN_TIP, t1, clamp(t2_tip, finger.theta2_min,
+                                                        finger.theta2_max), k1, finger.l2, False)
+    return FingerState(PROXIMAL_ONLY, t1, finger.theta2_max, k1, 0.0, strikes)
 
 
 # ---------------------------------------------------------------------------------------------
 # Stick-slip and reconfiguration (MODEL 5)
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def path_events(t1, t2, k2, finger, springs):
-    """Bit mask of the reconfiguration events that hold at a state of the path (model-notes D4)."""
-    events = 0
-    if max_torque_balance(k2, t1, t2, finger, springs) >= 0.0:
-        events |= STICK
-    if t2 >= finger.theta2_max - RANGE_TOL:
-        events |= DISTAL_STOP
-    if t1 <= 0.0:
-        events |= PROXIMAL_STOP
-    if k2 > finger.l2 + RANGE_TOL:
-        events |= SLIP
-    return events
-
-
-@njit(cache=True)
-def path_event_mask_at(t1, dx, dy, finger, springs):
-    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    return path_events(t1, t2, k2, finger, springs)
-
-
-@njit(cache=True)
-def event_margin(event, t1, dx, dy, finger, springs):
-    """(holds, margin) of one path event at t1; the margin is continuous in t1 and >= 0 where
-    the event holds, so a bracketing root finder can interpolate it."""
-    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    holds = (path_events(t1, t2, k2, finger, springs) & event) != 0
-    if event == STICK:
-        margin = max_torque_balance(k2, t1, t2, finger, springs)
-    elif event == DISTAL_STOP:
-        margin = t2 - (finger.theta2_max - RANGE_TOL)
-    else:  # SLIP
-        margin = k2 - (finger.l2 + RANGE_TOL)
-    return holds, margin
-
-
-@njit(cache=True)
-def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol):
-    """Where an event starts along the path: it holds at lo, not at hi (lo < hi).
-
-    Safeguarded Illinois regula falsi on the event margin: every probe lies at least root_tol/2
-    inside the bracket and every fourth is a bisection, so the bracket shrinks to root_tol in a
-    handful of evaluations. Returns the lo end, where the event holds (model-notes D4).
-    """
-    if event == PROXIMAL_STOP:
-        return 0.0
-    _, f_lo = event_margin(event, lo, dx, dy, finger, springs)
-    _, f_hi = event_margin(event, hi, dx, dy, finger, springs)
-    kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
-    for it in range(400):  # bounded: at worst every fourth probe halves the bracket
-        width = hi - lo
-        if width <= root_tol:
-            break
-        x = 0.5 * (lo + hi)
-        if it % 4 != 3 and f_lo != f_hi:
-            x = hi - f_hi * width / (f_hi - f_lo)
-            x = min(max(x, lo + 0.5 * root_tol), hi - 0.5 * root_tol)
-        holds, f_x = event_margin(event, x, dx, dy, finger, springs)
-        if holds:
-            lo = x
-            f_lo = f_x
-            if kept == 1:
-                f_hi *= 0.5
-            kept = 1
-        else:
-            hi = x
-            f_hi = f_x
-            if kept == -1:
-                f_lo *= 0.5
-            kept = -1
-    return lo
-
-
-@njit(cache=True)
 def reconfigure(dx, dy, t1_start, finger, solver, effects):
-    """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event.
+    """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event
+    (the edge path of kernels.path).
 
-    Returns a FingerState with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED.
+    Returns a FingerState with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED; with
+    tip_contact, a contact that passes the tip is taken over by the tip (D15).
     """
-    step = solver.reconfig_step
-    hi = t1_start
-    lo = t1_start
-    events = 0
-    # Bounded in floating point before converting (no int overflow for any step: Numba's
-    # math.ceil returns int64, which overflowed for t1 / step > 9.2e18 and skipped the path; found
-    # by running the tests under NUMBA_DISABLE_JIT=1). The last node is t1 = 0, where the proximal
-    # stop always holds, so the loop always ends on an event.
-    n_max = int(math.ceil(min(t1_start / step, float(MAX_PATH_STEPS)))) + 1
-    for n in range(1, n_max + 1):
-        lo = t1_start - n * step
-        if lo <= 0.0 or n == n_max:
-            lo = 0.0
-        events = path_event_mask_at(lo, dx, dy, finger, effects.joint_springs)
-        if events != 0:
-            break
-        hi = lo
-    best_t1 = -1.0
-    best_event = PROXIMAL_STOP
-    for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
-        if events & event:
-            t_cross = event_crossing(event, lo, hi, dx, dy, finger, effects.joint_springs,
-                                     solver.root_tol)
-            if t_cross > best_t1:
-                best_t1 = t_cross
-                best_event = event
-    if best_t1 < 0.0:  # unreachable (t1 = 0 is always an event); keep a defined answer
-        best_t1 = 0.0
-    t2, k2 = distal_tangency(dx, dy, best_t1, finger.l1, finger.r)
-    if best_event == SLIP:
-        return FingerState(SLIPPED, best_t1, t2, 0.0, k2, False)
+    event, t1, _ = follow_path(dx, dy, t1_start, 0.0, finger, solver, effects.joint_springs,
+                               None)
+    t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
+    if event == SLIP:
+        return past_the_tip(effects.tip_contact, dx, dy, t1, t2, k2, finger, solver,
+                            effects.joint_springs)
     # the bracket end may lie past the distal stop by up to root_tol: report the stop itself
-    return FingerState(DISTAL_ONLY, best_t1, min(t2, finger.theta2_max), 0.0, k2, False)
+    return FingerState(DISTAL_ONLY, t1, min(t2, finger.theta2_max), 0.0, k2, False)
+
+
+@njit(cache=True)
+def past_the_tip(tip, dx, dy, t1, t2, k2, finger, solver, springs):
+    """The distal contact has slid to the tip: the part is lost (SLIPPED, the paper's ejection)
+    or, with tip_contact, the finger follows the tip on the disc (D15)."""
+    if tip is None:
+        return FingerState(SLIPPED, t1, t2, 0.0, k2, False)
+    return tip_path(dx, dy, t2, finger, solver, springs, tip)
+
+
+@njit(cache=True)
+def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
+    """D15: the tip stays on the disc while the distal closes (t2 increases from t2_start, t1
+    follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop) or the part is
+    lost (SLIPPED, where the tip last touched)."""
+    event, s, s_touching = follow_path(dx, dy, -t2_start, -finger.theta2_max, finger, solver,
+                                       springs, tip)
+    if event == SLIP:
+        s = s_touching
+    t2 = min(-s, finger.theta2_max)
+    _, _, t1 = tip_on_disc(t2, dx, dy, finger)
+    t1 = clamp(t1, 0.0, math.pi)
+    if event == SLIP:
+        return FingerState(SLIPPED, t1, t2, 0.0, finger.l2, False)
+    return FingerState(TIP_ONLY, t1, t2, 0.0, finger.l2, False)
+
+
+@njit(cache=True)
+def tip_contact_holds(state, dx, dy, finger, springs, proximal_contact):
+    """MODEL 5.1 for a finger touching the part with its tip (D15), with a proximal edge contact
+    or not, and with the stops its joints rest on."""
+    cn1, cn2, ct1, ct2 = tip_columns(state.t1, state.t2, dx, dy, finger)
+    tau1, tau2 = joint_torques(state.t1, state.t2, finger, springs)
+    lower1, upper1 = at_limit(state.t1, 0.0, math.pi)
+    lower2, upper2 = at_limit(state.t2, finger.theta2_min, finger.theta2_max)
+    # proximal lower stop: closing torque (residual <= 0), upper: opening (>= 0); likewise distal
+    proximal = stop_balance(lower1, upper1, BALANCE_NEGATIVE, BALANCE_POSITIVE)
+    if proximal_contact and state.k1 > RANGE_TOL:  # a proximal edge contact pushes open
+        proximal = combine_balance(proximal, BALANCE_POSITIVE)
+    distal = stop_balance(lower2, upper2, BALANCE_NEGATIVE, BALANCE_POSITIVE)
+    return vertex_contact_holds(tau1, tau2, cn1, cn2, ct1, ct2, finger.mu_s, proximal, distal)
+
+
+@njit(cache=True)
+def settle_vertex(tip, first, dx, dy, finger, solver, effects):
+    """D15: settle a vertex strike (tip_contact only; without it a strike stays VERTEX)."""
+    if tip is None:
+        return first
+    mode = first.mode
+    if mode == JOINT_STRIKE:
+        # the distal lies tangent at B, where no force balances the distal tendon: the contact
+        # slides from B toward the tip along the edge path
+        return reconfigure(dx, dy, first.t1, finger, solver, effects)
+    with_proximal = mode == PROXIMAL_THEN_TIP
+    if tip_contact_holds(first, dx, dy, finger, effects.joint_springs, with_proximal):
+        return FingerState(PROXIMAL_TIP if with_proximal else TIP_ONLY, first.t1, first.t2,
+                           first.k1 if with_proximal else 0.0, finger.l2, False)
+    return tip_path(dx, dy, first.t2, finger, solver, effects.joint_springs, tip)
 
 
 @njit(cache=True)
@@ -322,6 +262,8 @@ def settle(first, dx, dy, finger, solver, effects):
         if max_torque_balance(first.k2, first.t1, first.t2, finger, springs) >= 0.0:
             return FingerState(DISTAL_ONLY, first.t1, first.t2, 0.0, first.k2, False)
         return reconfigure(dx, dy, first.t1, finger, solver, effects)
+    if mode >= JOINT_STRIKE:
+        return settle_vertex(effects.tip_contact, first, dx, dy, finger, solver, effects)
     return first
 
 

@@ -94,11 +94,18 @@ def vertex_entry(dx, dy, rho, delta, r):
     The vertex turns counter-clockwise about the origin of (dx, dy). Returns inf if it never does,
     or only grazes the disc (model-notes D3).
     """
-    dist2 = dx * dx + dy * dy
-    if dist2 <= 0.0 or rho <= 0.0:
-        return NO_ANGLE
-    dist = math.sqrt(dist2)
-    c = (rho * rho + dist2 - r * r) / (2.0 * rho * dist)
+    c = entry_cosine(dx, dy, rho, r)
     if c >= 1.0 - RANGE_TOL or c < -1.0:  # a graze (c = 1) touches without entering
         return NO_ANGLE
     return math.atan2(dy, dx) - math.acos(c) - delta
+
+
+@njit(cache=True)
+def entry_cosine(dx, dy, rho, r):
+    """MODEL 4's acos argument (rho^2 + |d|^2 - r^2) / (2 rho |d|) for a vertex at radius rho
+    about the origin of (dx, dy); 2 (no entry) where it is undefined."""
+    dist2 = dx * dx + dy * dy
+    if dist2 <= 0.0 or rho <= 0.0:
+        return 2.0
+    dist = math.sqrt(dist2)
+    return (rho * rho + dist2 - r * r) / (2.0 * rho * dist)

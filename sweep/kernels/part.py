@@ -7,7 +7,8 @@ import math
 
 from numba import njit
 
-from ..model import DISTAL_ONLY, FREE, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX
+from ..model import (DISTAL_ONLY, FREE, GAP_TOL, PALM_TOL, PROXIMAL_ONLY, PROXIMAL_TIP, RANGE_TOL,
+                     TIP_ONLY, TWO_PHALANX)
 
 TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or segments touch
 
@@ -50,12 +51,22 @@ def add_contact(angles, n, normal_angle, cone_half_angle):
 def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
     """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the
     left)."""
-    if mode == PROXIMAL_ONLY or mode == TWO_PHALANX:
+    if mode == PROXIMAL_ONLY or mode == TWO_PHALANX or mode == PROXIMAL_TIP:
         a = t1 + 0.5 * math.pi  # angle of a_y in the finger frame
         n = add_contact(angles, n, a if side == 1 else math.pi - a, cone_half_angle)
     if mode == TWO_PHALANX or mode == DISTAL_ONLY:
         b = t1 + t2 + 0.5 * math.pi  # angle of b_y
         n = add_contact(angles, n, b if side == 1 else math.pi - b, cone_half_angle)
+    return n
+
+
+@njit(cache=True)
+def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half_angle):
+    """Add a finger's tip contact (tip_contact, model-notes D15): normal from the tip to the
+    part centre, world frame."""
+    if mode == TIP_ONLY or mode == PROXIMAL_TIP:
+        _, _, _, _, tx, ty = finger_polyline(side, t1, t2, l1, l2, w)
+        n = add_contact(angles, n, math.atan2(y - ty, x - tx), cone_half_angle)
     return n
 
 
@@ -89,14 +100,19 @@ def touches_palm(x, y, w, r):
 
 
 @njit(cache=True)
-def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r):
-    """Cone-hull equilibrium of the part with both fingers' tangent contacts and the palm.
+def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r, l1, l2,
+                        tip):
+    """Cone-hull equilibrium of the part with both fingers' tangent contacts, their tip contacts
+    (tip_contact: `tip` not None) and the palm.
 
     `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
     """
     cone = math.atan(mu)
     n = finger_contact_normals(angles, 0, 0, mode_l, t1_l, t2_l, cone)
     n = finger_contact_normals(angles, n, 1, mode_r, t1_r, t2_r, cone)
+    if tip is not None:
+        n = tip_contact_normal(angles, n, 0, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone)
+        n = tip_contact_normal(angles, n, 1, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone)
     if touches_palm(x, y, w, r):
         n = add_contact(angles, n, 0.5 * math.pi, cone)
     if n < 4:
@@ -286,7 +302,8 @@ def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
     if progress >= t1 + (t2 - theta2_min):
         return False, mode, t1, t2, k1, k2
     a1, a2 = closing_path_angles(progress, t1, t2, theta2_min)
-    if progress >= t1 and k1 > 0.0 and (mode == TWO_PHALANX or mode == PROXIMAL_ONLY):
+    if progress >= t1 and k1 > 0.0 and (mode == TWO_PHALANX or mode == PROXIMAL_ONLY
+                                        or mode == PROXIMAL_TIP):
         return True, PROXIMAL_ONLY, a1, a2, k1, 0.0
     return True, FREE, a1, a2, 0.0, 0.0
 

@@ -48,6 +48,7 @@ class EffectBlocks(NamedTuple):
     """
 
     tip_contact: object       # None (the paper's model: vertex strikes are left unresolved)
+    #                           or TipContact
     joint_springs: object     # None (springs only order the closing)
     finger_collision: object  # None (the paper's fingers pass through each other)
     trajectory: object        # None: discrete steepest descent; a float: continuous streamlines
@@ -57,6 +58,15 @@ class EffectBlocks(NamedTuple):
 
 NO_EFFECTS = EffectBlocks(None, None, None, None)
 
+
+
+class TipContact(NamedTuple):
+    """The tip_contact effect (MODEL 9, model-notes D15): the tip and the distal joint are real
+    contacts; a finger whose tip cannot hold follows the tip on the disc, stepped by
+    `path_step` (rad of t1) and bracketed to `tol`, as the reconfiguration path."""
+
+    path_step: float
+    tol: float
 
 
 class JointSprings(NamedTuple):
