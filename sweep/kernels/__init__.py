@@ -1,7 +1,9 @@
 """Numba kernels. Only this package holds `@njit` code; the layers above call it.
 
 geometry  closed-form contact geometry (MODEL 3) and vertex strikes (MODEL 4)
-finger    one finger: closing sequence, stick-slip, reconfiguration, energy, forces (MODEL 4-6)
+statics   joint torques and stick-slip tests (MODEL 5.1-5.3), vertex contacts (tip_contact)
+path      the paths of a finger that cannot hold: edge (MODEL 5.3) and tip (tip_contact)
+finger    one finger: closing sequence, stick-slip, energy, forces (MODEL 4-6)
 part      part equilibrium, containment, opening (MODEL 7, 8)
 records   the parameter and result records every kernel takes and returns
 field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
