@@ -298,6 +298,9 @@ def trajectory_ends(outs, h, stack):
     point_class = outs.point_class
     end_state = outs.end_state
     end_index = outs.end_index
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    caging_score = outs.caging_score
     ny, nx = energy.shape
     size = ny * nx
     for p in range(size):
@@ -325,8 +328,8 @@ def trajectory_ends(outs, h, stack):
                 break
             stack[depth] = p
             depth += 1
-            if outs.equilibrium[j, i]:
-                state = END_CAGED if outs.caged[j, i] else END_TIP_PREHENSION
+            if equilibrium[j, i]:
+                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
                 last = p
                 break
             q = downhill_neighbour(energy, point_class, i, j, h)
@@ -342,7 +345,7 @@ def trajectory_ends(outs, h, stack):
     for p in range(size):
         if end_state.flat[p] == END_CAGED:
             q = end_index.flat[p]
-            score_sum += outs.caging_score.flat[q]
+            score_sum += caging_score.flat[q]
     return score_sum
 
 
@@ -359,6 +362,10 @@ def trajectories(outs, h, stack, streamline_step):
 def count_summary(outs, tip_overlap, score_sum, h, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY."""
     point_class = outs.point_class
+    end_state = outs.end_state
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    crossed = outs.crossed
     ny, nx = point_class.shape
     for n in range(out.shape[0]):
         out[n] = 0.0
@@ -368,7 +375,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
         for i in range(nx):
             c = point_class[j, i]
             if c == REACHED:
-                e = outs.end_state[j, i]
+                e = end_state[j, i]
                 if e == END_CAGED:
                     out[S_CAGED] += 1
                 elif e == END_TIP_PREHENSION:
@@ -378,7 +385,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
                 elif e == END_STALLED:
                     out[S_STALLED] += 1
                 out[S_REACHED] += 1
-                if outs.equilibrium[j, i]:
+                if equilibrium[j, i]:
                     out[S_EQUILIBRIUM] += 1
             elif c == VERTEX_POINT:
                 out[S_VERTEX] += 1
@@ -390,9 +397,9 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
                 out[S_EJECT] += 1
             if c != INFEASIBLE and (tip_overlap[0, j, i] or tip_overlap[1, j, i]):
                 out[S_TIP_OVERLAP] += 1
-            if outs.caged[j, i]:
+            if caged[j, i]:
                 out[S_CAGED_POINTS] += 1
-                if outs.crossed[j, i]:
+                if crossed[j, i]:
                     out[S_CAGED_CROSSED] += 1
     out[S_POINTS] = ny * nx
 
