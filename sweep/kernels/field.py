@@ -184,38 +184,44 @@ def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch,
     they are left False / NaN.
     """
     r = finger.r
+    # the record's arrays read once: a record field read inside the loop cost a reference-count
+    # pair on the points that `continue` (docs/performance.md, 2026-11-24)
+    mode, t1, t2 = fingers.mode, fingers.t1, fingers.t2
+    point_class, energy, l_open = outs.point_class, outs.energy, outs.l_open
+    equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed
+    caged, caging_score = outs.caged, outs.caging_score
     for i in range(xs.shape[0]):
         x = xs[i]
-        ml = fingers.mode[0, j, i]
-        mr = fingers.mode[1, j, i]
+        ml = mode[0, j, i]
+        mr = mode[1, j, i]
         c = classify_point(y, r, ml, mr)
-        outs.point_class[j, i] = c
-        outs.equilibrium[j, i] = False
-        outs.contained[j, i] = False
-        outs.crossed[j, i] = False
-        outs.caged[j, i] = False
-        outs.caging_score[j, i] = 0.0
+        point_class[j, i] = c
+        equilibrium_out[j, i] = False
+        contained[j, i] = False
+        crossed[j, i] = False
+        caged[j, i] = False
+        caging_score[j, i] = 0.0
         if c == INFEASIBLE:
             fill_infeasible(j, i, fingers, outs, forces)
             continue
         if forces is not None:
             point_forces(j, i, finger, fingers, forces)
-        a1l = fingers.t1[0, j, i]
-        a2l = fingers.t2[0, j, i]
-        a1r = fingers.t1[1, j, i]
-        a2r = fingers.t2[1, j, i]
-        outs.energy[j, i] = (
+        a1l = t1[0, j, i]
+        a2l = t2[0, j, i]
+        a1r = t1[1, j, i]
+        a2r = t2[1, j, i]
+        energy[j, i] = (
             finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
             + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
         if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
-            outs.energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
-                                  + spring_energy(a1r, a2r, springs, finger.theta2_min))
+            energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
+                             + spring_energy(a1r, a2r, springs, finger.theta2_min))
         eq = False
         if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
                                      a1r, a2r)
-            outs.equilibrium[j, i] = eq
-        outs.l_open[j, i] = np.nan
+            equilibrium_out[j, i] = eq
+        l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
         wants_geometry = caging and (eq or every_point or (forces is not None and c == REACHED))
         if forces is not None:
@@ -223,15 +229,15 @@ def outcome_row(j, xs, y, finger, hand, springs, fingers, outs, forces, scratch,
         if not wants_geometry:
             continue
         inside, intersect, opening = cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand)
-        outs.contained[j, i] = inside
-        outs.l_open[j, i] = opening
-        outs.crossed[j, i] = intersect
+        contained[j, i] = inside
+        l_open[j, i] = opening
+        crossed[j, i] = intersect
         score = cage_score(inside, opening, r)
         if forces is not None and c == REACHED:
             forces.geometric_cage_score[j, i] = score
         if eq and score > 0.0:
-            outs.caged[j, i] = True
-            outs.caging_score[j, i] = score
+            caged[j, i] = True
+            caging_score[j, i] = score
 
 
 @njit(cache=True)
