@@ -55,7 +55,8 @@ def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
 def gather_fingers(shared, m_lo, step, ncol, ny, h):
     """Both fingers of the map of palm half-width `step` grid steps, from the shared field:
     (world xs, FingerArrays on (2, ny, 2 ncol + 1)). Copied row by row, one finger's field at a
-    time: reads and writes run along rows (a column-wise copy was a third of a map's outcomes)."""
+    time: reads and writes run along rows (column by column it took over a third of the
+    per-map work after the finger field)."""
     nx = 2 * ncol + 1
     xs = np.empty(nx)
     for c in range(nx):
