@@ -184,38 +184,44 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     they are left False / NaN.
     """
     r = finger.r
+    # the record's arrays read once: a record field read inside the loop cost a reference-count
+    # pair on the points that `continue` (docs/performance.md, 2026-11-24)
+    mode, t1, t2 = fingers.mode, fingers.t1, fingers.t2
+    point_class, energy, l_open = outs.point_class, outs.energy, outs.l_open
+    equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed
+    caged, caging_score = outs.caged, outs.caging_score
     for i in range(xs.shape[0]):
         x = xs[i]
-        ml = fingers.mode[0, j, i]
-        mr = fingers.mode[1, j, i]
+        ml = mode[0, j, i]
+        mr = mode[1, j, i]
         c = classify_point(y, r, ml, mr)
-        outs.point_class[j, i] = c
-        outs.equilibrium[j, i] = False
-        outs.contained[j, i] = False
-        outs.crossed[j, i] = False
-        outs.caged[j, i] = False
-        outs.caging_score[j, i] = 0.0
+        point_class[j, i] = c
+        equilibrium_out[j, i] = False
+        contained[j, i] = False
+        crossed[j, i] = False
+        caged[j, i] = False
+        caging_score[j, i] = 0.0
         if c == INFEASIBLE:
             fill_infeasible(j, i, fingers, outs, forces)
             continue
         if forces is not None:
             point_forces(j, i, finger, fingers, forces)
-        a1l = fingers.t1[0, j, i]
-        a2l = fingers.t2[0, j, i]
-        a1r = fingers.t1[1, j, i]
-        a2r = fingers.t2[1, j, i]
-        outs.energy[j, i] = (
+        a1l = t1[0, j, i]
+        a2l = t2[0, j, i]
+        a1r = t1[1, j, i]
+        a2r = t2[1, j, i]
+        energy[j, i] = (
             finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
             + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
         if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
-            outs.energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
-                                  + spring_energy(a1r, a2r, springs, finger.theta2_min))
+            energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
+                             + spring_energy(a1r, a2r, springs, finger.theta2_min))
         eq = False
         if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
                                      a1r, a2r, finger.l1, finger.l2, tip)
-            outs.equilibrium[j, i] = eq
-        outs.l_open[j, i] = np.nan
+            equilibrium_out[j, i] = eq
+        l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
         wants_geometry = caging and (eq or every_point or (forces is not None and c == REACHED))
         if forces is not None:
@@ -223,15 +229,15 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         if not wants_geometry:
             continue
         inside, intersect, opening = cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand)
-        outs.contained[j, i] = inside
-        outs.l_open[j, i] = opening
-        outs.crossed[j, i] = intersect
+        contained[j, i] = inside
+        l_open[j, i] = opening
+        crossed[j, i] = intersect
         score = cage_score(inside, opening, r)
         if forces is not None and c == REACHED:
             forces.geometric_cage_score[j, i] = score
         if eq and score > 0.0:
-            outs.caged[j, i] = True
-            outs.caging_score[j, i] = score
+            caged[j, i] = True
+            caging_score[j, i] = score
 
 
 @njit(cache=True)
@@ -298,6 +304,9 @@ def trajectory_ends(outs, h, stack):
     point_class = outs.point_class
     end_state = outs.end_state
     end_index = outs.end_index
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    caging_score = outs.caging_score
     ny, nx = energy.shape
     size = ny * nx
     for p in range(size):
@@ -325,8 +334,8 @@ def trajectory_ends(outs, h, stack):
                 break
             stack[depth] = p
             depth += 1
-            if outs.equilibrium[j, i]:
-                state = END_CAGED if outs.caged[j, i] else END_TIP_PREHENSION
+            if equilibrium[j, i]:
+                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
                 last = p
                 break
             q = downhill_neighbour(energy, point_class, i, j, h)
@@ -342,7 +351,7 @@ def trajectory_ends(outs, h, stack):
     for p in range(size):
         if end_state.flat[p] == END_CAGED:
             q = end_index.flat[p]
-            score_sum += outs.caging_score.flat[q]
+            score_sum += caging_score.flat[q]
     return score_sum
 
 
@@ -359,6 +368,10 @@ def trajectories(outs, h, stack, streamline_step):
 def count_summary(outs, tip_overlap, score_sum, h, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY."""
     point_class = outs.point_class
+    end_state = outs.end_state
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    crossed = outs.crossed
     ny, nx = point_class.shape
     for n in range(out.shape[0]):
         out[n] = 0.0
@@ -368,7 +381,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
         for i in range(nx):
             c = point_class[j, i]
             if c == REACHED:
-                e = outs.end_state[j, i]
+                e = end_state[j, i]
                 if e == END_CAGED:
                     out[S_CAGED] += 1
                 elif e == END_TIP_PREHENSION:
@@ -378,7 +391,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
                 elif e == END_STALLED:
                     out[S_STALLED] += 1
                 out[S_REACHED] += 1
-                if outs.equilibrium[j, i]:
+                if equilibrium[j, i]:
                     out[S_EQUILIBRIUM] += 1
             elif c == VERTEX_POINT:
                 out[S_VERTEX] += 1
@@ -390,9 +403,9 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
                 out[S_EJECT] += 1
             if c != INFEASIBLE and (tip_overlap[0, j, i] or tip_overlap[1, j, i]):
                 out[S_TIP_OVERLAP] += 1
-            if outs.caged[j, i]:
+            if caged[j, i]:
                 out[S_CAGED_POINTS] += 1
-                if outs.crossed[j, i]:
+                if crossed[j, i]:
                     out[S_CAGED_CROSSED] += 1
     out[S_POINTS] = ny * nx
 
