@@ -29,6 +29,9 @@ EFFECTS = {
     "joint_springs": Effects(**SPRINGS),
     "finger_collision": Effects(finger_collision=True),
     "springs + collision": Effects(finger_collision=True, **SPRINGS),
+    "tip_contact": Effects(tip_contact=True),
+    "tip + collision": Effects(tip_contact=True, finger_collision=True),
+    "tip + springs + collision": Effects(tip_contact=True, finger_collision=True, **SPRINGS),
 }
 OUTPUTS = {
     "energy": Outputs.from_names(["energy"]),
@@ -52,8 +55,8 @@ def main():
     ap.add_argument("--h", type=float, default=0.05)
     ap.add_argument("--repeats", type=int, default=3)
     args = ap.parse_args()
-    combos = [(e, o) for e in EFFECTS for o in OUTPUTS
-              if not (EFFECTS[e].joint_springs and OUTPUTS[o].forces)]  # not implemented
+    combos = [(e, o) for e in EFFECTS for o in OUTPUTS  # forces with springs or tip: refused
+              if not ((EFFECTS[e].joint_springs or EFFECTS[e].tip_contact) and OUTPUTS[o].forces)]
     for e, o in combos:  # compile or load every specialisation before timing
         run_one(EFFECTS[e], OUTPUTS[o], 0.5)
     times = {c: [] for c in combos}

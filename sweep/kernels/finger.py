@@ -34,7 +34,7 @@ from .geometry import (
     vertex_entry,
     wrap_angle,
 )
-from .path import SLIP, follow_path, tip_columns, tip_on_disc
+from .path import DISTAL_STOP, SLIP, follow_path, tip_columns, tip_on_disc
 from .records import FingerState, FingerStatics
 from .statics import (
     BALANCE_NEGATIVE,
@@ -205,6 +205,8 @@ def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     if event == SLIP:
         s = s_touching
     t2 = min(-s, finger.theta2_max)
+    if event == DISTAL_STOP:  # on the stop itself (as the edge path ends on t1 = 0 exactly)
+        t2 = finger.theta2_max
     _, _, t1 = tip_on_disc(t2, dx, dy, finger)
     t1 = clamp(t1, 0.0, math.pi)
     if event == SLIP:

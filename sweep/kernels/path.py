@@ -103,32 +103,37 @@ def tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, mu_s):
 
 @njit(cache=True)
 def tip_node(s, dx, dy, finger, springs):
-    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull), pull = -tau . c_n > 0
-    where the tendon pulls the tip off the disc (gtip and pull are 0 where it does not meet)."""
+    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes). pull = -tau . c_n
+    > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier balances the
+    tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is >= 0, from
+    tau x c_t = F (c_n x c_t) (its sign, without dividing). 0 / True where it does not meet."""
     t2 = -s
     meets, c, t1 = tip_on_disc(t2, dx, dy, finger)
     gtip = 0.0
     pull = 0.0
+    pushes = True
     if meets:
         cn1, cn2, ct1, ct2 = tip_columns(t1, t2, dx, dy, finger)
         tau1, tau2 = joint_torques(t1, t2, finger, springs)
         gtip = tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, finger.mu_s)
         pull = -(tau1 * cn1 + tau2 * cn2)
-    return meets, c, t1, t2, gtip, pull
+        pushes = (tau1 * ct2 - tau2 * ct1) * (cn1 * ct2 - cn2 * ct1) >= 0.0
+    return meets, c, t1, t2, gtip, pull, pushes
 
 
 @njit(cache=True)
 def tip_event_margin(event, s, dx, dy, finger, springs):
     """(holds, margin) of one tip-path event at s = -t2 (D15), as edge_event_margin."""
-    meets, c, t1, t2, gtip, pull = tip_node(s, dx, dy, finger, springs)
-    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, finger)
+    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
+    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
 
 
 @njit(cache=True)
-def tip_event_holds(event, meets, c, t1, t2, gtip, pull, finger):
-    """(holds, margin) of a tip-path event at a node: stick (gtip >= 0), distal stop
-    (t2 >= theta2_max), proximal stop (t1 out of [0, pi]), lost (SLIP: the tip's circle about J
-    misses the disc, or the tendon pulls the tip off)."""
+def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger):
+    """(holds, margin) of a tip-path event at a node: stick (gtip >= 0 with a pushing tip: the
+    finger is in equilibrium, MODEL 5.1), distal stop (t2 >= theta2_max), proximal stop (t1 out
+    of [0, pi] by more than the range slack), lost (SLIP: the tip's circle about J misses the
+    disc, the tendon pulls the tip off, or only a pulling tip would balance the tendon)."""
     if event == DISTAL_STOP:  # with or without contact: the path ends at theta2_max
         margin = t2 - (finger.theta2_max - RANGE_TOL)
         return margin >= 0.0, margin
@@ -137,20 +142,22 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, finger):
             return True, max(c - (1.0 - RANGE_TOL), -1.0 - c)
         return False, -1.0
     if event == PROXIMAL_STOP:
-        margin = max(-t1, t1 - math.pi)
-        return margin >= 0.0, margin
+        margin = max(-RANGE_TOL - t1, t1 - (math.pi + RANGE_TOL))
+        return margin > 0.0, margin
     if event == STICK:
-        return gtip >= 0.0, gtip
+        return gtip >= 0.0 and pushes, gtip
+    if gtip >= 0.0 and not pushes:
+        return True, max(pull, gtip)
     return pull > 0.0, pull
 
 
 @njit(cache=True)
 def tip_path_events(s, dx, dy, finger, springs):
     """Bit mask of the tip-path events that hold at s = -t2 (D15)."""
-    meets, c, t1, t2, gtip, pull = tip_node(s, dx, dy, finger, springs)
+    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
     events = 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):
-        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, finger)
+        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
         if holds:
             events |= event
     return events
