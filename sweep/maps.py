@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .kernels.field import finger_field, map_from_fingers
+from .kernels.field import finger_field, map_from_fingers_parallel
 from .kernels.records import (
     NO_EFFECTS,
     EffectBlocks,
@@ -287,9 +287,9 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     force_arrays = new_force_arrays(ny, nx) if forces else None
     summary = np.empty(len(SUMMARY_FIELDS))
     hand = Hand(float(design.w), float(command.f_left), float(command.f_right), float(g.h))
-    map_from_fingers(g.x, g.y, finger, hand, blocks, fingers, outs, force_arrays,
-                     np.empty(ny * nx if outputs.caging else 0, dtype=np.int64), summary, True,
-                     outputs.equilibrium, outputs.caging)
+    map_from_fingers_parallel(g.x, g.y, finger, hand, blocks, fingers, outs, force_arrays,
+                              np.empty(ny * nx if outputs.caging else 0, dtype=np.int64),
+                              summary, True, outputs.equilibrium, outputs.caging)
     finished = time.perf_counter()
 
     attrs = summary_attrs(summary, outputs, effects)

@@ -1,12 +1,14 @@
 """Grids of points: finger fields, per-point outcomes, trajectories and the summary of a map
 (MODEL 7, 8).
 
-The map pipeline is one function, `map_from_fingers`: outcomes -> trajectories -> summary, from
-finger fields that the caller fills (directly with `finger_field`, or by gathering a shared field
-in `kernels.cells`). `sweep.maps.compute_map`, the sweep's shared-field path and the plot all go
-through it. Row functions do the work; `finger_field` loops over rows with `prange` (one map, all
-threads), `finger_field_serial` runs inside the sweep's own parallel loop over maps (Numba's
-default threading layer does not nest parallel regions).
+The map pipeline, `map_from_fingers`: outcomes -> trajectories -> summary, from finger fields
+that the caller fills (directly with `finger_field`, or by gathering a shared field in
+`kernels.cells`). The sweep's shared-field path and the plot go through it; `sweep.maps.
+compute_map` through `map_from_fingers_parallel`, the same steps with the outcome rows in
+`prange`. Row functions do the work; `finger_field` and `outcome_rows_parallel` loop over rows
+with `prange` (one map, all threads), `finger_field_serial` and `map_from_fingers` run inside the
+sweep's own parallel loop over maps (Numba's default threading layer does not nest parallel
+regions).
 """
 import math
 
@@ -417,19 +419,52 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
                      every_point, equilibrium=True, caging=True):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
-    summary row. Serial: one map's outcomes cost a few percent of its finger fields.
+    summary row. Serial (the sweep calls it inside its own parallel loop over maps);
+    `map_from_fingers_parallel` is the same pipeline with the outcome rows in parallel.
 
     Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
     equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
     point, so a branch costs nothing measurable (docs/effects.md)."""
-    scratch = np.empty(SCRATCH_ANGLES)
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
                                              effects.finger_collision)
+    scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
                     fingers, outs, forces,
                     scratch, every_point, equilibrium, caging)
+    map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
+                       n_collision_changed)
+
+
+@njit(cache=True)
+def map_from_fingers_parallel(xs, ys, finger, hand, effects, fingers, outs, forces, stack,
+                              summary, every_point, equilibrium=True, caging=True):
+    """map_from_fingers with the outcome rows in parallel (one map, all threads: compute_map).
+    Rows are independent, so the results are those of the serial pipeline, bit for bit."""
+    n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
+                                             effects.finger_collision)
+    outcome_rows_parallel(xs, ys, finger, hand, effects.joint_springs, effects.tip_contact,
+                          fingers, outs, forces, every_point, equilibrium, caging)
+    map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
+                       n_collision_changed)
+
+
+@njit(cache=True, parallel=True)
+def outcome_rows_parallel(xs, ys, finger, hand, springs, tip, fingers, outs, forces,
+                          every_point, equilibrium, caging):
+    """The outcome rows of one map, in parallel (records and blocks as arguments: see
+    finger_field_of_blocks)."""
+    for j in prange(ys.shape[0]):
+        scratch = np.empty(SCRATCH_ANGLES)  # per row: each thread its own
+        outcome_row(j, xs, ys[j], finger, hand, springs, tip, fingers, outs, forces, scratch,
+                    every_point, equilibrium, caging)
+
+
+@njit(cache=True)
+def map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
+                       n_collision_changed):
+    """Trajectories and the summary row of a map whose outcomes are filled."""
     if caging:
         score_sum = trajectories(outs, hand.h, stack, effects.trajectory)
     else:
