@@ -274,9 +274,17 @@ def meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision):
         return -1.0
     step = collision.progress_step
     n_max = int(min(math.ceil(p_end / step), MAX_PROGRESS_STEPS)) + 1
-    lo = 0.0
+    # No point of a finger moves faster than (l1 + l2) per unit of progress (dt1 + dt2 <= dp), so
+    # fingers a distance D apart cannot meet within D / (2 (l1 + l2)) of progress: those nodes
+    # are skipped, which changes no answer (the first node where they meet is the same).
+    speed2 = 2.0 * (finger.l1 + finger.l2)
+    skip_to = 1 + int(min(paths_gap_at(0.0, t1l, t2l, t1r, t2r, finger, w) / (speed2 * step),
+                          float(n_max)))
     for n in range(1, n_max + 1):
         hi = min(n * step, p_end)
+        if n < skip_to and hi < p_end:
+            continue
+        lo = min((n - 1) * step, p_end)
         if paths_cross_at(hi, t1l, t2l, t1r, t2r, finger, w):
             for _ in range(200):  # bisection, bounded
                 if hi - lo <= collision.tol:
@@ -287,10 +295,42 @@ def meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision):
                 else:
                     lo = mid
             return lo
-        lo = hi
         if hi >= p_end:
             break
+        gap = paths_gap_at(hi, t1l, t2l, t1r, t2r, finger, w)
+        skip_to = n + 1 + int(min(gap / (speed2 * step), float(n_max)))
     return -1.0
+
+
+@njit(cache=True)
+def paths_gap_at(progress, t1l, t2l, t1r, t2r, finger, w):
+    """A lower bound, less a safety margin, of the distance between the two fingers at a
+    progress where they do not meet (0 if unsure): the least distance between their segments,
+    leaving out the two proximal links when they share a base (w = 0), where only a distal
+    joint on the other proximal link counts as meeting (fingers_cross)."""
+    a1l, a2l = closing_path_angles(progress, t1l, t2l, finger.theta2_min)
+    a1r, a2r = closing_path_angles(progress, t1r, t2r, finger.theta2_min)
+    jlx, jly, blx, bly, tlx, tly = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w)
+    jrx, jry, brx, bry, trx, try_ = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w)
+    gap2 = min(segment_gap2(jlx, jly, blx, bly, brx, bry, trx, try_),
+               segment_gap2(blx, bly, tlx, tly, jrx, jry, brx, bry),
+               segment_gap2(blx, bly, tlx, tly, brx, bry, trx, try_))
+    if (jlx - jrx) ** 2 + (jly - jry) ** 2 <= TOUCH2:
+        gap2 = min(gap2, point_segment_distance2(blx, bly, jrx, jry, brx, bry),
+                   point_segment_distance2(brx, bry, jlx, jly, blx, bly))
+    else:
+        gap2 = min(gap2, segment_gap2(jlx, jly, blx, bly, jrx, jry, brx, bry))
+    return max(math.sqrt(gap2) - 1e-9, 0.0)
+
+
+@njit(cache=True)
+def segment_gap2(ax, ay, bx, by, cx, cy, dx, dy):
+    """Squared distance between segments AB and CD that do not cross (the least of the four
+    endpoint-to-segment distances)."""
+    return min(point_segment_distance2(ax, ay, cx, cy, dx, dy),
+               point_segment_distance2(bx, by, cx, cy, dx, dy),
+               point_segment_distance2(cx, cy, ax, ay, bx, by),
+               point_segment_distance2(dx, dy, ax, ay, bx, by))
 
 
 @njit(cache=True)
