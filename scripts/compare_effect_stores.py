@@ -58,12 +58,22 @@ def main(base_path, effect_path):
           f"({np.sum(lb) / np.sum(la):.3f} of base); maps whose Lambda changed: "
           f"{int(np.sum(la != lb)):,} of {la.size:,}\n")
     ba, bb = best_designs(base), best_designs(eff)
-    print("| part (r, mu) | base best (l1, l2, r1, r2, w) | Lambda | with effect | Lambda | same |")
-    print("|---|---|---|---|---|---|")
+    print("Best design per part. Configurations depend on the pulley radii only through "
+          "R = r2/r1 (MODEL 11), so designs with the same l1, l2, R, w are the same gripper "
+          "and tie (to round-off); 'same' compares (l1, l2, R, w).\n")
+    print("| part (r, mu) | base best (l1, l2, r1, r2, w) | R | Lambda | with effect | R | Lambda "
+          "| same |")
+    print("|---|---|---|---|---|---|---|---|")
     for part in ba:
         (da, va), (db, vb) = ba[part], bb[part]
-        print(f"| {part[0]:g}, {part[1]:g} | {', '.join(f'{v:g}' for v in da)} | {va:,.0f} | "
-              f"{', '.join(f'{v:g}' for v in db)} | {vb:,.0f} | {'yes' if da == db else 'no'} |")
+        print(f"| {part[0]:g}, {part[1]:g} | {', '.join(f'{v:g}' for v in da)} | "
+              f"{da[3] / da[2]:.3g} | {va:,.0f} | {', '.join(f'{v:g}' for v in db)} | "
+              f"{db[3] / db[2]:.3g} | {vb:,.0f} | {'yes' if same_gripper(da, db) else 'no'} |")
+
+
+def same_gripper(a, b):
+    """Same l1, l2, w and R = r2/r1 (the configurations depend on the radii only through R)."""
+    return (a[0], a[1], a[4]) == (b[0], b[1], b[4]) and abs(a[3] / a[2] - b[3] / b[2]) < 1e-9
 
 
 
