@@ -34,7 +34,7 @@ from .geometry import (
     vertex_entry,
     wrap_angle,
 )
-from .path import DISTAL_STOP, SLIP, follow_path, tip_columns, tip_on_disc
+from .path import DISTAL_STOP, SLIP, follow_path, tip_columns, tip_on_disc, tip_polar
 from .records import FingerState, FingerStatics
 from .statics import (
     BALANCE_NEGATIVE,
@@ -101,8 +101,7 @@ def closing_contact(dx, dy, finger, effects):
         mode = strike_mode(effects.tip_contact, JOINT_STRIKE)
         k1_out = l1
         k2_out = 0.0
-    rho_t = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(theta2_min))
-    delta_t = math.atan2(l2 * math.sin(theta2_min), l1 + l2 * math.cos(theta2_min))
+    rho_t, delta_t = tip_polar(theta2_min, l1, l2)
     t_t = vertex_entry(dx, dy, rho_t, delta_t, r)
     if in_range(t_t, 0.0, math.pi) and t_t < best_t1 - RANGE_TOL:
         best_t1 = t_t
