@@ -309,12 +309,9 @@ def contact_count(mode):
 @njit(cache=True)
 def joints_on_limits(state, finger):
     """How many of the finger's joints rest on a limit (each may carry a stop torque)."""
-    n = 0
-    if state.t1 <= RANGE_TOL or state.t1 >= math.pi - RANGE_TOL:
-        n += 1
-    if state.t2 <= finger.theta2_min + RANGE_TOL or state.t2 >= finger.theta2_max - RANGE_TOL:
-        n += 1
-    return n
+    lower1, upper1 = at_limit(state.t1, 0.0, math.pi)
+    lower2, upper2 = at_limit(state.t2, finger.theta2_min, finger.theta2_max)
+    return int(lower1 or upper1) + int(lower2 or upper2)
 
 
 @njit(cache=True)
