@@ -1,21 +1,26 @@
-"""What accuracy costs in time: a ladder of accuracy settings on a sample of a config's maps,
-compared with a reference at the finest setting (MODEL 8, docs/accuracy.md).
+"""What accuracy costs in time, judged against a converged reference (MODEL 8,
+docs/accuracy.md).
 
 The study, in order:
 
 1. *Default sweep.* Every map of the config at its own settings (the sweep's shared-field path),
    to find each part's best design (largest caging area, ties to the first design in config
    order).
-2. *Sample* (deterministic): the cells (l1, l2, r1, r2) of a Halton sequence over the four axes'
-   value indices (bases 2, 3, 5, 7; points 1..N), plus the cell of every part's best design; each
-   sampled cell with every palm width and every part. So every part is in the sample, designs
-   spread over the whole space, and each part's default best is in it.
+2. *Sample* (deterministic): the cells (l1, l2, r1, r2) of a Halton sequence over the four
+   axes' value indices (bases 2, 3, 5, 7; points 1..N), plus the cell of every part's best
+   design; each sampled cell with every palm width and every part.
 3. *Ladder*: one axis varied at a time from the config's setting: h in {2h, h, h/2, h/4};
-   reconfig_step from 0.2 to 0.002 rad; root_tol from 1e-3 to 1e-12; trajectory discrete or
-   continuous. *Reference*: h/4, reconfig_step 0.002, root_tol 1e-12, discrete.
+   reconfig_step from 0.2 to 0.002 rad; root_tol from 1e-3 to 1e-12; every trajectory method.
+   *Reference*: one halving finer than the finest rung, h/8, with reconfig_step 0.002,
+   root_tol 1e-12 and the default trajectory method. *The reference's own convergence*: the same
+   settings at h/4 (one halving coarser) against the reference: caging-area error and top-1.
 4. *Metrics* per setting, against the reference: seconds per map (and projected for the whole
    config), caging-area error (median, worst), top-1 agreement, top-5 overlap, Kendall tau.
    Caging area (Lambda h^2), not Lambda, is compared: Lambda grows as 1/h^2.
+5. *Convergence* of each trajectory method as h halves (h, h/2, h/4, h/8 at the config's other
+   settings) on a smaller fixed sample: each part's best cell at the config's setting with every
+   palm width, plus any maps named with `--map`: the caging area summed over the sample, its
+   change from the previous h, and the stalled share (stalled starts / reached points).
 
 Ties: under equal tensions only R = r2/r1 matters, so designs that differ only in the scale of
 (r1, r2) tie exactly. Two scores tie when they differ by at most TIE_REL times the larger. A
@@ -35,17 +40,23 @@ import json
 import math
 import os
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from .batch import summarize_cells
-from .model import Accuracy, ModelInputError
+from .model import TRAJECTORY_METHODS, Accuracy, ModelInputError
+from .outputs import write_bytes_atomic
 from .scene import Scene
 from .schema import SUMMARY_FIELDS
 
 CAGING_AREA = SUMMARY_FIELDS.index("caging_area")
+# Summary columns the convergence study keeps per map.
+CONVERGENCE_FIELDS = ("caging_area", "n_stalled", "n_reached", "n_caged")
+CONVERGENCE_COLUMNS = [SUMMARY_FIELDS.index(k) for k in CONVERGENCE_FIELDS]
+# Halvings of h in the convergence study: h, h/2, h/4, h/8.
+CONVERGENCE_HALVINGS = 4
 TIE_REL = 1e-9
 DEFAULT_SAMPLE = 24
 HALTON_BASES = (2, 3, 5, 7)
@@ -62,7 +73,8 @@ CELL_AXES = ("l1", "l2", "r1", "r2")
 class Setting:
     """One rung of the ladder: the axis it varies and the full accuracy it runs at."""
 
-    axis: str          # "h", "reconfig_step", "root_tol", "trajectory", or "reference"
+    axis: str          # "h", "reconfig_step", "root_tol", "trajectory", "reference" or
+    #                    "reference/2" (the reference's settings one halving coarser)
     h: float
     accuracy: Accuracy
 
@@ -76,7 +88,8 @@ class Setting:
         a = self.accuracy
         return {"h": f"h = {self.h:g}", "reconfig_step": f"reconfig_step = {a.reconfig_step:g}",
                 "root_tol": f"root_tol = {a.root_tol:g}", "trajectory": a.trajectory,
-                "reference": "reference"}[self.axis]
+                "reference": f"reference (h = {self.h:g})",
+                "reference/2": f"reference at h = {self.h:g}"}[self.axis]
 
 
 def halton(index: int, base: int) -> float:
@@ -99,10 +112,17 @@ def ladder(scene: Scene) -> tuple[list[Setting], Setting]:
         out.append(Setting("reconfig_step", h0, replace(a0, reconfig_step=s)))
     for t in ROOT_TOL_LADDER:
         out.append(Setting("root_tol", h0, replace(a0, root_tol=t)))
-    for m in ("discrete", "continuous"):
+    for m in TRAJECTORY_METHODS:
         out.append(Setting("trajectory", h0, replace(a0, trajectory=m)))
-    reference = Setting("reference", h0 / 4, Accuracy(REFERENCE_STEP, REFERENCE_TOL, "discrete"))
+    reference, _ = references(scene)
     return out, reference
+
+
+def references(scene: Scene) -> tuple[Setting, Setting]:
+    """The reference, one halving finer than the finest rung of the ladder (h/8), and the same
+    settings one halving coarser (h/4), which shows whether the reference has converged."""
+    acc = Accuracy(REFERENCE_STEP, REFERENCE_TOL, Accuracy.trajectory)
+    return (Setting("reference", scene.h / 8, acc), Setting("reference/2", scene.h / 4, acc))
 
 
 def is_default(setting: Setting, scene: Scene) -> bool:
@@ -137,10 +157,11 @@ def caging_areas(scene: Scene, cells4: np.ndarray, h: float, accuracy: Accuracy)
 
 
 def save_atomic(path: Path, **arrays) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        np.savez(f, **arrays)
-    os.replace(tmp, path)
+    import io
+
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    write_bytes_atomic(path, buf.getvalue())
 
 
 def cached(path: Path, compute) -> dict:
@@ -241,12 +262,33 @@ class Study:
     n_sample: int
     sample: np.ndarray          # indices into design_cells
     n_maps_sample: int
-    rows: list                  # one dict per setting
+    rows: list                  # one dict per setting (the ladder, then the references)
     reference: Setting
     recommended: dict
     seconds_default_sweep: float
     seconds_steps: float        # compute time of every step, summed from the work files
     best: list                  # per part: (part, best design at config / recommended / reference)
+    convergence: list = field(default_factory=list)  # one dict per (method, h): sample sums
+    witnesses: list = field(default_factory=list)    # one dict per (witness map, method, h)
+    n_maps_convergence: int = 0
+
+
+@dataclass(frozen=True)
+class Witness:
+    """A map named on the command line (`--map`): its convergence is shown on its own."""
+
+    l1: float
+    l2: float
+    r1: float
+    r2: float
+    w: float
+    r: float
+    mu: float
+
+    @property
+    def label(self) -> str:
+        return (f"l1={self.l1:g} l2={self.l2:g} r1={self.r1:g} r2={self.r2:g} w={self.w:g}, "
+                f"r={self.r:g} mu={self.mu:g}")
 
 
 def check_sample(n_sample) -> None:
@@ -254,35 +296,122 @@ def check_sample(n_sample) -> None:
         raise ModelInputError(f"--sample must be a whole number >= 1, got {n_sample!r}")
 
 
+def parse_witness(text: str) -> Witness:
+    """'L1,L2,R1,R2,W,R,MU' -> Witness, validated like any map's inputs (ModelInputError)."""
+    from .model import Command, Design, Limits, Part, validate_inputs
+
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 7:
+        raise ModelInputError(f"--map takes seven numbers L1,L2,R1,R2,W,R,MU, got {text!r}")
+    wit = Witness(*values)
+    validate_inputs(Design(wit.l1, wit.l2, wit.r1, wit.r2, wit.w), Part(wit.r, wit.mu),
+                    Command(), Limits(), Accuracy())
+    return wit
+
+
 def work_dir_key(scene: Scene, n_sample: int) -> str:
     """Work files belong to one config (its hash) and one sample size."""
     return hashlib.sha256(f"{scene.config_hash}:{n_sample}".encode()).hexdigest()[:16]
 
 
-def run_study(scene: Scene, n_sample: int, work: Path, progress=None) -> Study:
+def convergence_groups(scene: Scene, default_areas: np.ndarray, witnesses) -> list:
+    """The convergence sample as groups of maps that share a cell and a part: each part's best
+    cell at the config's setting with every palm width, then every witness (its own width).
+    Each group: (cell (l1, l2, r1, r2), widths, r, mu, command index, witness or None)."""
+    cells = design_cells(scene)
+    n_w = scene.widths.size
+    groups = []
+    for k, (r, mu, c) in enumerate(parts(scene)):
+        cell = cells[int(best_designs(default_areas)[k]) // n_w]
+        groups.append((tuple(cell), tuple(scene.widths), r, mu, c, None))
+    for wit in witnesses:
+        groups.append(((wit.l1, wit.l2, wit.r1, wit.r2), (wit.w,), wit.r, wit.mu, 0, wit))
+    return groups
+
+
+def convergence_summaries(scene: Scene, groups: list, h: float, accuracy: Accuracy) -> dict:
+    """CONVERGENCE_FIELDS of every map of the groups at one setting: (n_maps, 4), in order."""
+    def run(sel):
+        out = []
+        for cell, widths, r, mu, c, _ in sel:
+            rows = summarize_cells(np.array([[*cell, r, mu]]), np.array(widths),
+                                   scene.commands[c], h, scene.limits, accuracy, scene.effects)
+            out.append(rows[0][:, CONVERGENCE_COLUMNS])
+        return np.concatenate(out)
+
+    run(groups[:1])  # loads (or compiles) the kernels of this setting: untimed
+    started = time.perf_counter()
+    values = run(groups)
+    return dict(values=values, seconds=np.array(time.perf_counter() - started))
+
+
+def run_convergence(scene: Scene, groups: list, work: Path, progress=None) -> tuple[list, list]:
+    """Per trajectory method and h (CONVERGENCE_HALVINGS halvings of the config's h): the sample
+    sums (caging area, its change from the previous h, stalled and caged shares) and the same
+    per witness map."""
+    key = hashlib.sha256(repr([g[:5] for g in groups]).encode()).hexdigest()[:12]
+    n_maps = sum(len(g[1]) for g in groups)
+    witness_rows = [n for n, g in enumerate(groups) if g[5] is not None]
+    # each witness group holds one map, the last maps of the sample
+    first_witness = n_maps - len(witness_rows)
+    rows, wit_rows = [], []
+    for method in TRAJECTORY_METHODS:
+        previous = None
+        for n in range(CONVERGENCE_HALVINGS):
+            h = scene.h / 2 ** n
+            acc = replace(scene.accuracy, trajectory=method)
+            res = cached(work / f"convergence-{key}-{method}-h{h:.6g}.npz",
+                         lambda h=h, acc=acc: convergence_summaries(scene, groups, h, acc))
+            v = res["values"]
+            area, stalled, reached, caged = (float(v[:, i].sum()) for i in range(4))
+            rows.append(dict(method=method, h=h, caging_area=area,
+                             change=None if previous is None else abs(area - previous),
+                             stalled_share=stalled / reached if reached else 0.0,
+                             caged_share=caged / reached if reached else 0.0,
+                             seconds_per_map=float(res["seconds"]) / n_maps))
+            previous = area
+            for m, g in enumerate(groups[len(groups) - len(witness_rows):]):
+                a, st, re, ca = v[first_witness + m]
+                wit_rows.append(dict(witness=g[5].label, method=method, h=h,
+                                     caging_area=float(a), stalled=int(st), reached=int(re),
+                                     stalled_share=float(st / re) if re else 0.0))
+            if progress:
+                progress(f"convergence {method} h = {h:g}")
+    return rows, wit_rows
+
+
+def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=()) -> Study:
     """Run (or resume) the study; `progress(done, total, label)` is told after each step."""
     check_sample(n_sample)
     work.mkdir(parents=True, exist_ok=True)
-    settings, reference = ladder(scene)
-    total = len(settings) + 2
+    settings, _ = ladder(scene)
+    reference, reference_coarse = references(scene)
+    total = len(settings) + 3 + len(TRAJECTORY_METHODS) * CONVERGENCE_HALVINGS
     all_cells = design_cells(scene)
     default = Setting("default", scene.h, scene.accuracy)
     full = cached(work / "default_sweep.npz", lambda: timed_areas(scene, all_cells, default))
-    done = 1
+    done = [1]
+
+    def tell(label):
+        done[0] += 1
+        if progress:
+            progress(done[0], total, label)
+
     if progress:
-        progress(done, total, "default sweep")
+        progress(1, total, "default sweep")
     sample = sample_cells(scene, n_sample, full["caging_area"])
     cells4 = all_cells[sample]
     n_maps = cells4.shape[0] * scene.widths.size * len(parts(scene))
     results = {}
-    for s in [reference] + settings:
+    for s in [reference, reference_coarse] + settings:
         results[s.key] = cached(work / f"{s.key}.npz", lambda s=s: timed_areas(scene, cells4, s))
-        done += 1
-        if progress:
-            progress(done, total, s.label)
+        tell(s.label)
     ref = results[reference.key]["caging_area"]
     rows = []
-    for s in settings + [reference]:
+    for s in settings + [reference_coarse, reference]:
         res = results[s.key]
         per_map = float(res["seconds"]) / n_maps
         row = dict(axis=s.axis, setting=s.label, h=s.h,
@@ -292,8 +421,8 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None) -> Study:
         row.update(metrics(res["caging_area"], ref))
         rows.append(row)
     rec = recommend(rows)
-    rec_setting = next(s for s in settings + [reference] if s.label == rec["setting"]
-                       and s.axis == rec["axis"])
+    rec_setting = next(s for s in settings + [reference_coarse, reference]
+                       if s.label == rec["setting"] and s.axis == rec["axis"])
     cells_w = [(tuple(c), w) for c in cells4 for w in scene.widths]
     best = []
     for k, part in enumerate(parts(scene)):
@@ -303,18 +432,22 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None) -> Study:
             flat = results[key]["caging_area"].reshape(-1, len(parts(scene)))[:, k]
             picks.append(cells_w[int(tied_best(flat)[0])])
         best.append((part, *picks))
+    groups = convergence_groups(scene, full["caging_area"], witnesses)
+    convergence, witness_rows = run_convergence(scene, groups, work, tell)
     seconds = float(full["seconds"]) + sum(float(v["seconds"]) for v in results.values())
+    seconds += sum(r["seconds_per_map"] for r in convergence) * sum(len(g[1]) for g in groups)
     return Study(scene, n_sample, sample, n_maps, rows, reference, rec, float(full["seconds"]),
-                 seconds, best)
+                 seconds, best, convergence, witness_rows, sum(len(g[1]) for g in groups))
 
 
 def recommend(rows: list) -> dict:
     """The cheapest setting whose best design equals the reference's for every part sampled;
-    the config's own setting unless another is at least MIN_SAVING cheaper."""
+    the config's own setting unless another is at least MIN_SAVING cheaper. Where no setting
+    cheaper than the reference agrees, the reference itself."""
     agreeing = [r for r in rows if r["axis"] != "reference" and r["top1_agreement"] == 1.0]
-    default = next(r for r in rows if r["default"])
     if not agreeing:
-        return default
+        return next(r for r in rows if r["axis"] == "reference")
+    default = next(r for r in rows if r["default"])
     cheapest = min(agreeing, key=lambda r: r["seconds_per_map"])
     if default in agreeing and cheapest["seconds_per_map"] > (1 - MIN_SAVING) * \
             default["seconds_per_map"]:
@@ -331,9 +464,7 @@ COLUMNS = ("axis", "setting", "h", "reconfig_step", "root_tol", "trajectory", "d
 
 
 def write_text_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+    write_bytes_atomic(path, text.encode())
 
 
 def csv_text(study: Study) -> str:
@@ -349,6 +480,42 @@ def csv_text(study: Study) -> str:
 
 def _duration(seconds: float) -> str:
     return f"{seconds:.1f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+def _fmt_change(value) -> str:
+    return "" if value is None else f"{value:.4g}"
+
+
+def convergence_lines(study: Study) -> list[str]:
+    """The convergence section: per trajectory method, the sample's caging area and stalled
+    share as h halves; then the witness maps."""
+    if not study.convergence:
+        return []
+    lines = [
+        "## Convergence as h halves",
+        "",
+        f"Sample: each part's best cell at the config's setting with every palm width"
+        f"{' plus the maps named with --map' if study.witnesses else ''} = "
+        f"{study.n_maps_convergence} maps; every trajectory method at the config's other "
+        "settings. Caging area summed over the sample; change = |area - area at 2h|; stalled "
+        "share = stalled starts / reached points.",
+        "",
+        "| method | h | caging area (sum) | change from 2h | stalled share | caged share | s/map |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in study.convergence:
+        lines.append(f"| {r['method']} | {r['h']:g} | {r['caging_area']:.4f} | "
+                     f"{_fmt_change(r['change'])} | {r['stalled_share']:.4f} | "
+                     f"{r['caged_share']:.4f} | {r['seconds_per_map'] * 1e3:.2f} ms |")
+    if study.witnesses:
+        lines += ["", "Maps named with `--map`:", "",
+                  "| map | method | h | caging area | stalled / reached |", "|---|---|---|---|---|"]
+        for w in study.witnesses:
+            lines.append(f"| {w['witness']} | {w['method']} | {w['h']:g} | "
+                         f"{w['caging_area']:.4f} | {w['stalled']} / {w['reached']} "
+                         f"({w['stalled_share']:.4f}) |")
+    lines += ["", "![caging area and stalled share versus h](convergence.png)", ""]
+    return lines
 
 
 def markdown(study: Study, command_line: str, wall_seconds: float) -> str:
@@ -369,8 +536,10 @@ def markdown(study: Study, command_line: str, wall_seconds: float) -> str:
         f"config). The config's setting ran on all its maps in "
         f"{_duration(study.seconds_default_sweep)} to find each part's best design.",
         "",
-        f"Reference: h = {study.reference.h:g}, reconfig_step = {REFERENCE_STEP:g}, "
-        f"root_tol = {REFERENCE_TOL:g}, discrete. Errors are absolute caging-area errors "
+        f"Reference: h = {study.reference.h:g} (one halving finer than the finest rung), "
+        f"reconfig_step = {REFERENCE_STEP:g}, root_tol = {REFERENCE_TOL:g}, "
+        f"{study.reference.accuracy.trajectory}. {reference_convergence(study)} Errors are "
+        "absolute caging-area errors "
         "(Lambda h^2) against it; top-1 is the fraction of parts whose best design agrees "
         "(ties count as agreement); top-5 the mean overlap of the five best; tau the mean Kendall "
         "tau-b over parts. Time per map is this machine's wall time (shared with other jobs: "
@@ -388,6 +557,7 @@ def markdown(study: Study, command_line: str, wall_seconds: float) -> str:
             f"{_duration(r['projected_seconds'])} | {r['median_error']:.3g} | "
             f"{r['worst_error']:.3g} | {r['n_parts_agree']}/{n_parts} | {r['top5_overlap']:.2f} | "
             f"{r['kendall_tau']:.3f} |")
+
     def design(cw):
         (l1, l2, r1, r2), w = cw
         return f"l1={l1:g} l2={l2:g} r1={r1:g} r2={r2:g} w={w:g}"
@@ -402,11 +572,29 @@ def markdown(study: Study, command_line: str, wall_seconds: float) -> str:
         "",
         f"**Recommended**: {rec['setting']} (h = {rec['h']:g}, reconfig_step = "
         f"{rec['reconfig_step']:g}, root_tol = {rec['root_tol']:g}, {rec['trajectory']}): the "
-        "cheapest setting whose best design equals the reference's for every part sampled; the "
-        f"config's own setting is kept unless another is at least {MIN_SAVING:.0%} cheaper.",
+        "cheapest setting whose best design equals the reference's for every part sampled (the "
+        f"config's own setting is kept unless another is at least {MIN_SAVING:.0%} cheaper; "
+        "where no cheaper setting agrees, the reference's own)."
+        + (" No setting cheaper than the reference agrees with it on every part."
+           if rec["axis"] == "reference" else ""),
+        "",
+        "![error and top-1 agreement versus time](accuracy.png)",
         "",
     ]
+    lines += convergence_lines(study)
     return "\n".join(lines)
+
+
+def reference_convergence(study: Study) -> str:
+    """One sentence: the reference against its own settings one halving coarser."""
+    coarse = next((r for r in study.rows if r["axis"] == "reference/2"), None)
+    if coarse is None:
+        return ""
+    n_parts = len(parts(study.scene))
+    return (f"Has the reference converged? The same settings one halving coarser "
+            f"(h = {coarse['h']:g}) agree with it on the best design of "
+            f"{coarse['n_parts_agree']}/{n_parts} parts, with caging-area errors of "
+            f"{coarse['median_error']:.3g} (median) and {coarse['worst_error']:.3g} (worst).")
 
 
 def plot(study: Study, path: Path) -> None:
@@ -416,7 +604,7 @@ def plot(study: Study, path: Path) -> None:
     import matplotlib.ticker
     import matplotlib.pyplot as plt
 
-    rows = [r for r in study.rows if r["axis"] != "reference"]
+    rows = [r for r in study.rows if not r["axis"].startswith("reference")]
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 7), sharex=True)
     markers = {"h": "o", "reconfig_step": "s", "root_tol": "^", "trajectory": "D"}
     floor = 1e-16  # zero errors drawn at the floor of the log axis
@@ -439,10 +627,43 @@ def plot(study: Study, path: Path) -> None:
     ax1.legend(fontsize=8)
     ax1.set_title(f"Accuracy versus time: {study.scene.name}")
     fig.tight_layout()
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.png")
-    fig.savefig(tmp, dpi=110)
+    save_figure(fig, path)
+
+
+def save_figure(fig, path: Path) -> None:
+    import io
+
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=110, format="png")
     plt.close(fig)
-    os.replace(tmp, path)
+    write_bytes_atomic(path, buf.getvalue())
+
+
+def plot_convergence(study: Study, path: Path) -> None:
+    """Caging area (sample sum) and stalled share versus h, one line per trajectory method."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 7), sharex=True)
+    for method in TRAJECTORY_METHODS:
+        sel = [r for r in study.convergence if r["method"] == method]
+        hs = [r["h"] for r in sel]
+        ax1.plot(hs, [r["caging_area"] for r in sel], marker="o", label=method)
+        ax2.plot(hs, [r["stalled_share"] for r in sel], marker="o", label=method)
+    ax1.set_xscale("log")
+    ax1.invert_xaxis()  # finer to the right
+    ax1.set_ylabel("caging area, summed over the sample")
+    ax2.set_ylabel("stalled share (stalled / reached)")
+    ax2.set_xlabel("grid spacing h")
+    ax1.legend(fontsize=8)
+    ax1.set_title(f"Convergence as h halves: {study.scene.name} "
+                  f"({study.n_maps_convergence} maps)")
+    fig.tight_layout()
+    save_figure(fig, path)
 
 
 def write_outputs(study: Study, out: Path, command_line: str, wall_seconds: float) -> list[Path]:
@@ -451,7 +672,25 @@ def write_outputs(study: Study, out: Path, command_line: str, wall_seconds: floa
     write_text_atomic(md, markdown(study, command_line, wall_seconds))
     write_text_atomic(cs, csv_text(study))
     plot(study, png)
+    written = [md, cs, png]
+    if study.convergence:
+        plot_convergence(study, out / "convergence.png")
+        write_text_atomic(out / "convergence.csv", convergence_csv(study))
+        written += [out / "convergence.png", out / "convergence.csv"]
     write_text_atomic(out / "sample.json", json.dumps(
         dict(config_hash=study.scene.config_hash, n_sample=study.n_sample,
              cells=design_cells(study.scene)[study.sample].tolist()), indent=1))
-    return [md, cs, png]
+    return written
+
+
+def convergence_csv(study: Study) -> str:
+    import io
+
+    buf = io.StringIO()
+    cols = ("method", "h", "caging_area", "change", "stalled_share", "caged_share",
+            "seconds_per_map")
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w.writeheader()
+    for r in study.convergence:
+        w.writerow({k: ("" if r[k] is None else r[k]) for k in cols})
+    return buf.getvalue()

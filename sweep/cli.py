@@ -16,7 +16,7 @@ from . import __version__
 from .cli_base import SweepGroup, UserError
 from .cli_accuracy import accuracy as accuracy_command
 from .cli_sweep import COMMANDS as SWEEP_COMMANDS
-from .model import Accuracy     # plain dataclasses, no NumPy: cheap to import
+from .model import TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy  # plain Python: cheap
 
 
 @click.group(cls=SweepGroup,
@@ -55,6 +55,11 @@ def main():
               help="Reconfiguration step in theta1 (rad) before bracketing the stop.")
 @click.option("--root-tol", type=float, default=Accuracy.root_tol, show_default=True,
               help="Root tolerance of the reconfiguration stop (rad).")
+@click.option("--trajectory", type=click.Choice(TRAJECTORY_METHODS + tuple(TRAJECTORY_ALIASES)),
+              default=Accuracy.trajectory, show_default=True,
+              help="Trajectory method (MODEL 8, docs/model-notes.md D16): sliding follows "
+                   "creases of the energy; grid8 is the paper-like 8-neighbour descent "
+                   "('discrete' is its old name); continuous, streamlines.")
 @click.option("--threads", type=int, default=None,
               help="Numba threads (default: SLURM_CPUS_PER_TASK or all cores).")
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
@@ -79,7 +84,7 @@ def main():
 @click.option("--wait", is_flag=True,
               help="If another process is writing the same --out, wait for it.")
 def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
-                theta2_max, reconfig_step, root_tol, threads, out, plot_path, forces,
+                theta2_max, reconfig_step, root_tol, trajectory, threads, out, plot_path, forces,
                 outputs_spec, effects_spec, spring_k1, spring_k2, overwrite, wait):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
@@ -99,7 +104,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     command = Command(f_left, f_right)
     grid = Grid(h=h, xlim=tuple(xlim) if xlim else None, ylim=tuple(ylim) if ylim else None)
     limits = Limits(theta2_min_deg=theta2_min, theta2_max_deg=theta2_max)
-    accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol)
+    accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol, trajectory=trajectory)
     try:
         outputs = _outputs_from_flags(outputs_spec, forces)
         effects = _effects_from_flags(effects_spec, spring_k1, spring_k2, mu)

@@ -22,20 +22,25 @@ from .cli_sweep import CONFIG
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
               help="Directory for accuracy.md, .csv, .png and the resumable work files "
                    "[default: results/accuracy-<config name>].")
+@click.option("--map", "maps", multiple=True, metavar="L1,L2,R1,R2,W,R,MU",
+              help="Also show this map's convergence as h halves, on its own (repeatable).")
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress bar on stderr.")
-def accuracy(config, n_sample, out, progress):
+def accuracy(config, n_sample, out, maps, progress):
     """Run a ladder of accuracy settings (h, reconfig_step, root_tol, trajectory method) on
-    a deterministic sample of CONFIG's maps against a reference at the finest setting;
-    write a table (markdown + CSV) and a plot, and name the recommended setting: the
-    cheapest whose best design per part equals the reference's. Resumes if killed."""
-    from .accuracy import DEFAULT_SAMPLE, check_sample, run_study, work_dir_key, \
-        write_outputs
+    a deterministic sample of CONFIG's maps against a reference one halving finer than the
+    finest rung (and say whether the reference itself has converged); show how each
+    trajectory method converges as h halves; write tables (markdown + CSV) and plots, and
+    name the recommended setting: the cheapest whose best design per part equals the
+    reference's. Resumes if killed."""
+    from .accuracy import DEFAULT_SAMPLE, check_sample, parse_witness, run_study, \
+        work_dir_key, write_outputs
     from .model import ModelInputError
 
     n_sample = DEFAULT_SAMPLE if n_sample is None else n_sample
     try:
         check_sample(n_sample)
+        witnesses = [parse_witness(m) for m in maps]
     except ModelInputError as exc:
         raise UserError(str(exc)) from None
     out = out or Path("results") / f"accuracy-{config.name}"
@@ -54,11 +59,13 @@ def accuracy(config, n_sample, out, progress):
         bar.refresh()
 
     started = time.perf_counter()
-    study = run_study(config, n_sample, work, tell)
+    study = run_study(config, n_sample, work, tell, witnesses)
     bar.close()
     words = ["sweep", "accuracy", config.path or config.name]
     if n_sample != DEFAULT_SAMPLE:
         words += ["--sample", str(n_sample)]
+    for m in maps:
+        words += ["--map", m]
     paths = write_outputs(study, out, shlex.join(words), time.perf_counter() - started)
     rec = study.recommended
     click.echo(f"recommended: {rec['setting']} (h = {rec['h']:g}, reconfig_step = "

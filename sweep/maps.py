@@ -32,6 +32,7 @@ from .kernels.records import (
 from .model import (
     GRID_TOL,
     STREAMLINE_STEP,
+    TRAJECTORY_METHODS,
     Accuracy,
     Command,
     Design,
@@ -188,10 +189,8 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
-    solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    trajectory = None
-    if accuracy.trajectory == "continuous":  # the trajectory method rides with the effect blocks
-        trajectory = float(STREAMLINE_STEP)
+    solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol),
+                            TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP))
     springs = None
     if effects.joint_springs:
         springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2),
@@ -204,9 +203,9 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     if effects.tip_contact:
         # the tip path is stepped and bracketed like the reconfiguration path (D15)
         tip = TipContact(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    if tip is None and springs is None and collision is None and trajectory is None:
+    if tip is None and springs is None and collision is None:
         return finger, solver, NO_EFFECTS
-    return finger, solver, EffectBlocks(tip, springs, collision, trajectory)
+    return finger, solver, EffectBlocks(tip, springs, collision)
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).
@@ -287,7 +286,8 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     force_arrays = new_force_arrays(ny, nx) if forces else None
     summary = np.empty(len(SUMMARY_FIELDS))
     hand = Hand(float(design.w), float(command.f_left), float(command.f_right), float(g.h))
-    map_from_fingers_parallel(g.x, g.y, finger, hand, blocks, fingers, outs, force_arrays,
+    map_from_fingers_parallel(g.x, g.y, finger, solver, hand, blocks, fingers, outs,
+                              force_arrays,
                               np.empty(ny * nx if outputs.caging else 0, dtype=np.int64),
                               summary, True, outputs.equilibrium, outputs.caging)
     finished = time.perf_counter()

@@ -94,11 +94,16 @@ class Limits:
 
 @dataclass(frozen=True)
 class Accuracy:
-    """Accuracy settings (MODEL 8): reconfiguration step (rad) and root tolerance (rad)."""
+    """Accuracy settings (MODEL 8): reconfiguration step (rad), root tolerance (rad) and the
+    trajectory method (TRAJECTORY_METHODS; "discrete" is read as "grid8")."""
 
     reconfig_step: float = 0.01
     root_tol: float = 1e-12
-    trajectory: str = "discrete"
+    trajectory: str = "sliding"
+
+    def __post_init__(self):
+        if isinstance(self.trajectory, str) and self.trajectory in TRAJECTORY_ALIASES:
+            object.__setattr__(self, "trajectory", TRAJECTORY_ALIASES[self.trajectory])
 
 
 @dataclass(frozen=True)
@@ -174,8 +179,14 @@ class Outputs:
 # resolution on [0, pi].
 RECONFIG_STEP_RANGE = (1e-6, 0.5)
 ROOT_TOL_RANGE = (1e-15, 0.1)
-# MODEL 8: steepest descent on the grid, or streamlines on the interpolated energy
-TRAJECTORY_METHODS = ("discrete", "continuous")
+# MODEL 8 trajectory methods (model-notes D16): "sliding" (the default) is steepest descent on
+# the grid that, where every neighbour is uphill, slides along the crease on the true energy;
+# "grid8" is the paper-like 8-neighbour descent alone; "continuous" streamlines on the
+# interpolated energy. The kernels receive the code (the index in this tuple).
+TRAJECTORY_METHODS = ("sliding", "grid8", "continuous")
+TRAJECTORY_SLIDING, TRAJECTORY_GRID8, TRAJECTORY_CONTINUOUS = 0, 1, 2
+# Earlier versions called the 8-neighbour rule "discrete" (configs and stores say so).
+TRAJECTORY_ALIASES = {"discrete": "grid8"}
 # The continuous method's integrator step in grid steps (kernels/streamline.py): half a step
 # resolves a turn within one grid cell.
 STREAMLINE_STEP = 0.5
@@ -221,8 +232,8 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         if not (math.isfinite(value) and low <= value <= high):
             raise ModelInputError(f"{name} must be in [{low:g}, {high:g}] rad, got {value!r}")
     if accuracy.trajectory not in TRAJECTORY_METHODS:
-        raise ModelInputError(f"trajectory method must be one of {', '.join(TRAJECTORY_METHODS)}, "
-                              f"got {accuracy.trajectory!r}")
+        raise ModelInputError(f"trajectory method must be one of {', '.join(TRAJECTORY_METHODS)} "
+                              f"(or 'discrete' for grid8), got {accuracy.trajectory!r}")
     if effects is not None:
         unsupported = set(effects.names_on()) - IMPLEMENTED_EFFECTS
         if unsupported:

@@ -6,8 +6,8 @@
   eject as grey levels of `V`, vertex as tan-tinted grey levels, unreached flat light grey
   (both fingers fully closed there, so `V` is one value), with the boundary of `P_j` outlined;
 - hatching where the part is in equilibrium, and the outline of the caged region;
-- downhill trajectories (the discrete steepest-descent rule of the kernels, `downhill_neighbour`)
-  from a sparse lattice of starting points of `P_j`;
+- downhill trajectories by the map's own rule (kernels/trajectory.py: sliding, grid8, or
+  continuous streamlines) from a sparse lattice of starting points of `P_j`;
 - the end points of the trajectories that move (caged, tip prehension, ejection: the first point
   outside `P_j`, stalled), sized by how many points of `P_j` end there;
 - the gripper to scale (palm, both fingers' links and joints, the part) in one
@@ -30,7 +30,9 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
-from .kernels.field import downhill_neighbour
+from .kernels.records import Hand
+from .kernels.trajectory import (SLIDE_REJOINS, downhill_neighbour, max_slide_points,
+                                 slide_successor)
 from .kernels.part import finger_polyline
 from .model import (EJECT, END_CAGED, INFEASIBLE, REACHED, UNREACHED, VERTEX_POINT)
 from .outputs import write_bytes_atomic
@@ -51,7 +53,7 @@ END_STYLE = {
     "caged": ("o", "#ff2d7a", "white", "caged end points"),
     "tip": ("D", "#ff9f1c", "black", "tip-prehension end points"),
     "ejection": ("X", "#e41a1c", "white", "ejection: first points outside P_j"),
-    "stalled": ("s", "white", "black", "stalled: no lower neighbour"),
+    "stalled": ("s", "white", "black", "stalled: nothing lower to go to"),
 }
 
 
@@ -74,6 +76,40 @@ def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
             break
         path.append(int(q))
     return path
+
+
+def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
+    """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectory.py, the
+    default rule): grid steps, and where every neighbour is uphill the slide on the true
+    energy; and the flat index of the point where it ends (the map's `end_index`)."""
+    from .maps import kernel_records
+
+    energy = np.asarray(m.fields["energy"], dtype=np.float64)
+    point_class = np.asarray(m.fields["point_class"])
+    equilibrium = np.asarray(m.fields["equilibrium"], dtype=bool)
+    x, y = np.asarray(m.x, float), np.asarray(m.y, float)
+    ny, nx = energy.shape
+    h = _grid_step(m)
+    finger, solver, blocks = kernel_records(m.design, m.part, m.limits, m.accuracy, m.effects)
+    hand = Hand(float(m.design.w), float(m.command.f_left), float(m.command.f_right), h)
+    buf = np.empty((max_slide_points(ny, nx), 2))
+    p = int(start)
+    points = []
+    for _ in range(energy.size):
+        j, i = divmod(p, nx)
+        points.append((x[i], y[j]))
+        if point_class[j, i] != REACHED or stable[j, i]:
+            break
+        q = downhill_neighbour(energy, point_class, i, j, h)
+        if q < 0:
+            q, kind, n = slide_successor(energy, point_class, equilibrium, x, y, i, j, finger,
+                                         solver, blocks, hand, buf)
+            points.extend(map(tuple, buf[1:n]))
+            if kind != SLIDE_REJOINS:
+                p = int(q)
+                break
+        p = int(q)
+    return np.array(points), p
 
 
 def streamline_points(start: int, energy: np.ndarray, point_class: np.ndarray,
@@ -361,11 +397,14 @@ def _draw_trajectories(ax, v: dict) -> list:
     flat_y = np.broadcast_to(y[:, None], (ny, nx)).ravel()
     segments = []
     arrows = []
-    continuous = getattr(getattr(m, "accuracy", None), "trajectory", "") == "continuous"
+    method = getattr(getattr(m, "accuracy", None), "trajectory", "grid8")
     for s in starts:
-        if continuous:
+        if method == "continuous":
             pts = streamline_points(int(s), energy, point_class, m.fields["equilibrium"],
                                     np.asarray(m.fields["caging_score"]) > 0, x, y)
+            path = pts
+        elif method == "sliding":
+            pts, _ = sliding_points(int(s), m, stable)
             path = pts
         else:
             path = trajectory_path(int(s), energy, point_class, stable, h)

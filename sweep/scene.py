@@ -36,9 +36,9 @@ import yaml
 from . import __version__
 from .batch import CELL_COLUMNS, part_lattice_columns
 from .maps import BYTES_PER_POINT, grid_index_bounds
-from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, Accuracy,
-                    Command, Design, Effects, Grid, Limits, ModelInputError, Outputs, Part,
-                    validate_inputs)
+from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS,
+                    Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Outputs,
+                    Part, validate_inputs)
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -59,7 +59,6 @@ GRID_KEYS = ("h", "bounds")
 GRID_BOUNDS = ("reach",)
 LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
 ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
-TRAJECTORY_METHODS = ("discrete", "continuous")  # model.TRAJECTORY_METHODS
 EFFECT_KEYS = ("friction", "tip_contact", "joint_springs", "finger_collision")
 MAP_OUTPUT_KEYS = ("energy", "equilibrium", "caging", "forces")  # model.OUTPUT_NAMES
 OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k")
@@ -356,7 +355,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     accuracy = Accuracy(
         reconfig_step=_number(acc.get("reconfig_step", 0.01), "accuracy.reconfig_step"),
         root_tol=_number(acc.get("root_tol", 1e-12), "accuracy.root_tol"),
-        trajectory=acc.get("trajectory", "discrete"))
+        trajectory=acc.get("trajectory", Accuracy.trajectory))
     for key, (low, high) in (("reconfig_step", RECONFIG_STEP_RANGE),
                              ("root_tol", ROOT_TOL_RANGE)):
         value = getattr(accuracy, key)
@@ -365,7 +364,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
                              f"got {value!r}")
     if accuracy.trajectory not in TRAJECTORY_METHODS:
         raise SceneError(f"accuracy.trajectory: {accuracy.trajectory!r} is not implemented "
-                         f"(valid: {', '.join(TRAJECTORY_METHODS)})")
+                         f"(valid: {', '.join(TRAJECTORY_METHODS)}; 'discrete' means grid8)")
 
     eff = _mapping(raw.get("effects", {}), "effects", EFFECT_KEYS)
     flags = {}

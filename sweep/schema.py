@@ -66,7 +66,8 @@ POINT_FIELDS = (
     Field("point_class", "int8", MAP_DIMS, "class of the grid point (MODEL 8)",
           flags=POINT_CLASS_MEANINGS),
     Field("end_state", "int8", MAP_DIMS,
-          "end of the steepest-descent trajectory started here (MODEL 8)", output="caging",
+          "end of the trajectory started here (MODEL 8; method: the accuracy attribute)",
+          output="caging",
           flags=END_STATE_MEANINGS),
     Field("equilibrium", "bool", MAP_DIMS,
           "part in force equilibrium (cone hull, MODEL 7); computed for reached points only", "1",
@@ -144,8 +145,9 @@ SUMMARY = (
           "grid points whose trajectory ends in tip prehension", _COUNT, "caging"),
     Field("n_ejection", "int32", (), "grid points whose trajectory ends in ejection", _COUNT,
           "caging"),
-    Field("n_stalled", "int32", (), "grid points whose trajectory stalls (no lower neighbour) "
-          "before a stable point", _COUNT, "caging"),
+    Field("n_stalled", "int32", (), "grid points whose trajectory stalls before a stable "
+          "point: nothing lower to go to (sliding: not even off the grid; grid8: no lower "
+          "neighbour)", _COUNT, "caging"),
     Field("n_reached", "int32", (), "grid points of class reached (the set P_j)", _COUNT),
     Field("n_equilibrium", "int32", (), "grid points where the part is in equilibrium", _COUNT,
           "equilibrium"),

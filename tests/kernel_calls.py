@@ -3,6 +3,12 @@ from __future__ import annotations
 
 from sweep.kernels.finger import closing_contact, reconfigure, solve_finger
 from sweep.kernels.records import NO_EFFECTS, FingerModel, SolverSettings
+from sweep.model import STREAMLINE_STEP, TRAJECTORY_SLIDING
+
+
+def solver_settings(step, root_tol) -> SolverSettings:
+    """The accuracy record with the default trajectory method (finger solves ignore it)."""
+    return SolverSettings(float(step), float(root_tol), TRAJECTORY_SLIDING, STREAMLINE_STEP)
 
 
 def finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max) -> FingerModel:
@@ -14,7 +20,7 @@ def solve(dx, dy, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, root_to
     """solve_finger -> (mode, t1, t2, k1, k2, tip_overlap)."""
     return solve_finger(float(dx), float(dy),
                         finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max),
-                        SolverSettings(float(step), float(root_tol)), NO_EFFECTS)
+                        solver_settings(step, root_tol), NO_EFFECTS)
 
 
 def closing(dx, dy, l1, l2, r, theta2_min, theta2_max):
@@ -28,4 +34,4 @@ def reconfig(dx, dy, t1, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, 
     """reconfigure -> (mode, t1, t2, k1, k2, tip_overlap)."""
     return reconfigure(float(dx), float(dy), float(t1),
                        finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max),
-                       SolverSettings(float(step), float(root_tol)), NO_EFFECTS)
+                       solver_settings(step, root_tol), NO_EFFECTS)

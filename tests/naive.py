@@ -1,7 +1,7 @@
 """Slow, independent reference implementation of the model, for the tests.
 
 Written straight from the model (``docs/model.md``, which keeps the section numbers of the
-project's authoritative MODEL.md) and ``docs/model-notes.md`` (D1-D10) without looking at the
+project's authoritative MODEL.md) and ``docs/model-notes.md`` (D1-D10, D16) without looking at the
 fast kernels. Plain Python + math + NumPy; readability over speed: this file is the specification
 in executable form. Section numbers below refer to docs/model.md ("M3.1") and to the model notes
 ("D4").
@@ -466,47 +466,402 @@ def finger_energy(res, force, r1, r2, theta2_min):
     return -force * (r1 * res["t1"] + r2 * (res["t2"] - theta2_min))
 
 
-# Neighbour order of the discrete steepest descent: E, NE, N, NW, W, SW, S, SE as (di, dj).
-NEIGHBOURS = ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1))
+def position_feasible(dx_left, dx_right, py, r):
+    """D2, as the map decides it: the disc clear of the palm line and of both fingers' joints."""
+    return (py >= r - RANGE_TOL and finger_feasible(dx_left, py, r)
+            and finger_feasible(dx_right, py, r))
 
 
-def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None, ylim=None,
-              theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
-              reconfig_step=0.01, root_tol=1e-12):
-    """One energy map, point by point (M8). Arrays on (y, x) and (finger, y, x)."""
+def class_of_modes(modes):
+    """M8: the class of a feasible point from its two fingers' modes, first that applies."""
+    if SLIPPED in modes:
+        return EJECT
+    if VERTEX in modes:
+        return VERTEX_POINT
+    if modes[0] == FREE and modes[1] == FREE:
+        return UNREACHED
+    return REACHED
 
-    # --- Grid (M8, D1) -----------------------------------------------------------------------
-    if xlim is None:
-        x_reach = w / 2.0 + l1 + l2 + r
-        n_x = math.floor(x_reach / h + GRID_TOL)
-        i_lo, i_hi = -n_x, n_x
-    else:
-        i_lo, i_hi = grid_indices(xlim, h, 0.0)
-    if ylim is None:
-        y_reach = r + l1 + l2
-        j_lo, j_hi = 0, math.floor((y_reach - r) / h + GRID_TOL)
-    else:
-        j_lo, j_hi = grid_indices(ylim, h, r)
-    i_range = list(range(i_lo, i_hi + 1))
-    j_range = list(range(j_lo, j_hi + 1))
-    x = np.array([i * h for i in i_range])
-    y = np.array([r + j * h for j in j_range])
-    nx, ny = len(x), len(y)
 
-    half = w / (2.0 * h)
-    s = round(half)
-    integer_offsets = abs(half - s) <= GRID_TOL
+def hand_state(dx_left, dx_right, py, r, solve, f_left, f_right, r1, r2, theta2_min):
+    """Both fingers at one part centre given by its finger-frame offsets (M4-M6, M8).
 
-    def offsets(i):
-        """(dx_left, dx_right) of D1."""
-        if integer_offsets:
-            return (-i - s) * h, (i - s) * h
-        return -(i * h) - w / 2.0, i * h - w / 2.0
+    `solve(dx, dy)` is naive_finger with the design bound. Returns (class, energy, fingers);
+    an infeasible position is (INFEASIBLE, None, None): it has no energy."""
+    if not position_feasible(dx_left, dx_right, py, r):
+        return INFEASIBLE, None, None
+    fingers = (solve(dx_left, py), solve(dx_right, py))
+    energy = (finger_energy(fingers[0], f_left, r1, r2, theta2_min)
+              + finger_energy(fingers[1], f_right, r1, r2, theta2_min))
+    return class_of_modes([f["mode"] for f in fingers]), energy, fingers
+
+
+def finger_solver(l1, l2, r1, r2, r, mu, theta2_min, theta2_max, reconfig_step, root_tol):
+    """naive_finger with the design bound, memoised on (dx, dy)."""
 
     @lru_cache(maxsize=None)
     def solve(dx, dy):
         return naive_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
                             reconfig_step, root_tol)
+
+    return solve
+
+
+def world_offsets(px, w):
+    """(dx_left, dx_right) of a part centre at any x (M2): d = p - J_R, the left one mirrored."""
+    return -px - w / 2.0, px - w / 2.0
+
+
+def naive_point(px, py, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0,
+                theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
+                reconfig_step=0.01, root_tol=1e-12, solve=None):
+    """The model at any part centre (x, y), on or off the grid (D16 step 2): both fingers by
+    naive_finger, the class by M8 (INFEASIBLE as naive_map decides it), the energy by M6.
+
+    Returns a dict: point_class, energy (None where infeasible), fingers (None where infeasible).
+    Off the grid the offsets are x -+ w/2 (on the grid naive_map uses D1's exact offsets)."""
+    if solve is None:
+        solve = finger_solver(l1, l2, r1, r2, r, mu, theta2_min, theta2_max, reconfig_step,
+                              root_tol)
+    dx_left, dx_right = world_offsets(px, w)
+    cls, energy, fingers = hand_state(dx_left, dx_right, py, r, solve, f_left, f_right, r1, r2,
+                                      theta2_min)
+    return {"point_class": cls, "energy": energy, "fingers": fingers}
+
+
+# Neighbour order of the discrete steepest descent: E, NE, N, NW, W, SW, S, SE as (di, dj).
+NEIGHBOURS = ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1))
+TRAJECTORY_METHODS = ("sliding", "grid8")
+
+
+def _slide_directions():
+    """D16 "Directions": 32 unit vectors, direction k at k 11.25 deg counter-clockwise from E.
+
+    k = 0 .. 8 from cos/sin, with E = (1, 0) and N = (0, 1) exact; the other quadrants by flipping
+    signs, so that direction 16 - k (mod 32) is the exact mirror image in x of direction k."""
+    quarter = ([(1.0, 0.0)]
+               + [(math.cos(k * PI / 16.0), math.sin(k * PI / 16.0)) for k in range(1, 8)]
+               + [(0.0, 1.0)])
+    directions = []
+    for k in range(32):
+        if k <= 8:                      # first quadrant
+            c, s = quarter[k]
+        elif k <= 16:                   # second: mirror of 16 - k
+            c, s = quarter[16 - k]
+            c = -c
+        elif k < 24:                    # third: point reflection of k - 16
+            c, s = quarter[k - 16]
+            c, s = -c, -s
+        else:                           # fourth: mirror in y of 32 - k
+            c, s = quarter[32 - k]
+            s = -s
+        directions.append((c, s))
+    return tuple(directions)
+
+
+SLIDE_DIRECTIONS = _slide_directions()
+SLIDE_STEP_DIRECTIONS = tuple(range(0, 32, 4))       # the step's 8: E, NE, N, NW, W, SW, S, SE
+SLIDE_REFINEMENTS = 3                                # rotations by +a then -a, a halving
+SLIDE_STEP_ROTATION = PI / 8.0                       # a = 22.5, 11.25, 5.6 deg
+SLIDE_THOROUGH_ROTATION = PI / 32.0                  # a = 5.6, 2.8, 1.4 deg
+# D16 "The cascade": (search, radius as a fraction of h), tried in this order from every position
+SLIDE_CASCADE = (("step", 1.0),                      # (a) the step's search on the circle of h
+                 ("step", 0.25),                     # (b) the step's search on the circle of h/4
+                 ("thorough", 1.0))                  # (c) the thorough search on the circle of h
+SLIDE_REL = 1e-12                                    # "lower": E < E_ref - 1e-12 |E_ref|
+SLIDE_SEARCHES_PER_CELL = 64                         # at most 64 (nx + ny) searches per slide
+
+
+def strictly_below(e, e_ref):
+    """D16's comparison: e < e_ref - 1e-12 |e_ref|."""
+    return e < e_ref - SLIDE_REL * abs(e_ref)
+
+
+class ReferenceGrid:
+    """One map's grid (M8, D1) with the model at its points, each computed when first asked for,
+    and the trajectory rules (D7 grid8, D16 sliding). naive_map runs it over every point;
+    naive_trajectory follows a single start without computing the rest of the map."""
+
+    def __init__(self, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None,
+                 ylim=None, theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
+                 reconfig_step=0.01, root_tol=1e-12, trajectory="sliding"):
+        if trajectory not in TRAJECTORY_METHODS:
+            raise ValueError(f"trajectory must be one of {TRAJECTORY_METHODS}, "
+                             f"not {trajectory!r}")
+        self.l1, self.l2, self.r1, self.r2, self.w, self.r, self.mu = l1, l2, r1, r2, w, r, mu
+        self.f_left, self.f_right, self.h, self.theta2_min = f_left, f_right, h, theta2_min
+        self.trajectory = trajectory
+
+        # --- Grid (M8, D1) -------------------------------------------------------------------
+        if xlim is None:
+            x_reach = w / 2.0 + l1 + l2 + r
+            n_x = math.floor(x_reach / h + GRID_TOL)
+            i_lo, i_hi = -n_x, n_x
+        else:
+            i_lo, i_hi = grid_indices(xlim, h, 0.0)
+        if ylim is None:
+            y_reach = r + l1 + l2
+            j_lo, j_hi = 0, math.floor((y_reach - r) / h + GRID_TOL)
+        else:
+            j_lo, j_hi = grid_indices(ylim, h, r)
+        self.i_range = list(range(i_lo, i_hi + 1))
+        self.j_range = list(range(j_lo, j_hi + 1))
+        self.x = np.array([i * h for i in self.i_range])
+        self.y = np.array([r + j * h for j in self.j_range])
+        self.nx, self.ny = len(self.x), len(self.y)
+        half = w / (2.0 * h)
+        self.s = round(half)
+        self.integer_offsets = abs(half - self.s) <= GRID_TOL
+
+        self.solve = finger_solver(l1, l2, r1, r2, r, mu, theta2_min, theta2_max, reconfig_step,
+                                   root_tol)
+        self.points = {}          # (j, i) -> the model at that grid point (see point())
+        self.slides = {}          # (j, i) -> "rejoined" | "ejection" | "stalled"
+        self.slide_ends = {}      # (j, i) -> (x, y, energy) where that slide left off
+        self.end_point = {}       # (j, i) -> trajectory result (see trajectory_end())
+        self.cascade_moves = [0] * len(SLIDE_CASCADE)   # moves given by each search of D16
+
+    # --- The model at grid points (M4-M8, D1, D5, D6) ------------------------------------------
+    def offsets(self, ii):
+        """(dx_left, dx_right) of D1 at column ii."""
+        i, h = self.i_range[ii], self.h
+        if self.integer_offsets:
+            return (-i - self.s) * h, (i - self.s) * h
+        return -(i * h) - self.w / 2.0, i * h - self.w / 2.0
+
+    def point(self, jj, ii):
+        """Everything the map stores at grid point (jj, ii), computed once."""
+        rec = self.points.get((jj, ii))
+        if rec is None:
+            rec = self._compute_point(jj, ii)
+            self.points[(jj, ii)] = rec
+        return rec
+
+    def _compute_point(self, jj, ii):
+        px, py, r, w = self.x[ii], self.y[jj], self.r, self.w
+        dx_left, dx_right = self.offsets(ii)
+        cls, energy, fingers = hand_state(dx_left, dx_right, py, r, self.solve, self.f_left,
+                                          self.f_right, self.r1, self.r2, self.theta2_min)
+        rec = {"point_class": cls, "energy": energy, "fingers": fingers, "contained": False,
+               "l_open": float("nan"), "crossed": False, "equilibrium": False,
+               "stable": False, "caged": False, "caging_score": 0.0}
+        if cls == INFEASIBLE:
+            return rec                                       # class 0, NaN values (D6)
+        pts = [[to_world(p, fi, w) for p in finger_points(res["t1"], res["t2"], self.l1,
+                                                          self.l2)]
+               for fi, res in enumerate(fingers)]
+        (jl, bl, tl), (jr, br, tr) = pts
+        rec["contained"] = contained([jl, bl, tl, tr, br, jr], px, py)
+        rec["l_open"], rec["crossed"] = opening(pts[0], pts[1])
+        if cls == REACHED:
+            normals = contact_normals(fingers[0], 0) + contact_normals(fingers[1], 1)
+            if abs(py - r) <= PALM_TOL and abs(px) <= w / 2.0 + PALM_TOL:
+                normals.append((0.0, 1.0))
+            rec["equilibrium"] = in_equilibrium(normals, self.mu)
+        rec["stable"] = cls == REACHED and rec["equilibrium"]
+        rec["caged"] = (rec["stable"] and rec["contained"]
+                        and rec["l_open"] < 2.0 * r - RANGE_TOL)
+        if rec["caged"]:
+            rec["caging_score"] = 1.0 - rec["l_open"] / (2.0 * r)
+        return rec
+
+    # --- The model off the grid (D16 step 2) ---------------------------------------------------
+    def probe(self, cx, cy, rho, u):
+        """(energy, x, y, class) at rho u from (cx, cy); energy None where infeasible."""
+        px, py = cx + rho * u[0], cy + rho * u[1]
+        dx_left, dx_right = world_offsets(px, self.w)
+        cls, energy, _ = hand_state(dx_left, dx_right, py, self.r, self.solve, self.f_left,
+                                    self.f_right, self.r1, self.r2, self.theta2_min)
+        return energy, px, py, cls
+
+    def refine(self, cx, cy, rho, best, u, a):
+        """D16's 3 refinements from `best`, found in direction u: the directions +a (counter-
+        clockwise), then -a, from the direction this refinement started from, each replacing
+        the best only if strictly lower; a halves each time."""
+        for _ in range(SLIDE_REFINEMENTS):
+            ux, uy = u                                       # this refinement's centre
+            for sign in (1.0, -1.0):
+                ca, sa = math.cos(a), sign * math.sin(a)
+                v = (ca * ux - sa * uy, sa * ux + ca * uy)   # mirror-exact for mirrored u, -a
+                p = self.probe(cx, cy, rho, v)
+                if p[0] is not None and p[0] < best[0]:
+                    best, u = p, v
+            a /= 2.0
+        return best
+
+    def step_search(self, cx, cy, rho):
+        """D16 "A step's search": the 8 directions (first strictly lowest kept), refined 3 times
+        with a = 22.5 deg. None when all 8 points are infeasible."""
+        best = u_best = None
+        for k in SLIDE_STEP_DIRECTIONS:
+            u = SLIDE_DIRECTIONS[k]
+            p = self.probe(cx, cy, rho, u)
+            if p[0] is not None and (best is None or p[0] < best[0]):
+                best, u_best = p, u
+        if best is None:
+            return None
+        return self.refine(cx, cy, rho, best, u_best, SLIDE_STEP_ROTATION)
+
+    def thorough_search(self, cx, cy, rho):
+        """D16 "thorough search" on one circle: the 32 directions (first strictly lowest kept),
+        then around every direction k with a finite energy <= both its cyclic neighbours, in
+        order of k, the 3 refinements with a = 5.625 deg, each refinement's result replacing the
+        best so far only if strictly lower. None when all 32 points are infeasible."""
+        probes = [self.probe(cx, cy, rho, u) for u in SLIDE_DIRECTIONS]
+        best = None
+        for p in probes:
+            if p[0] is not None and (best is None or p[0] < best[0]):
+                best = p
+        if best is None:
+            return None
+        e = [math.inf if p[0] is None else p[0] for p in probes]
+        n = len(probes)
+        for k in range(n):
+            if math.isfinite(e[k]) and e[k] <= e[k - 1] and e[k] <= e[(k + 1) % n]:
+                result = self.refine(cx, cy, rho, probes[k], SLIDE_DIRECTIONS[k],
+                                     SLIDE_THOROUGH_ROTATION)
+                if result[0] < best[0]:
+                    best = result
+        return best
+
+    # --- Trajectories (M8, D7, D16) ------------------------------------------------------------
+    def successor(self, jj, ii):
+        """D7 / D16 step 1: the steepest strictly lower feasible neighbour, or None."""
+        e = self.point(jj, ii)["energy"]
+        best, best_slope = None, 0.0
+        for di, dj in NEIGHBOURS:
+            ni, nj = ii + di, jj + dj
+            if not (0 <= ni < self.nx and 0 <= nj < self.ny):
+                continue
+            other = self.point(nj, ni)
+            if other["point_class"] == INFEASIBLE:
+                continue
+            dist = self.h if (di == 0 or dj == 0) else self.h * math.sqrt(2.0)
+            slope = (e - other["energy"]) / dist
+            if slope > best_slope:
+                best, best_slope = (nj, ni), slope
+        return best
+
+    def nearest_grid_point(self, px, py):
+        """The grid point nearest to a position (clamped into the grid)."""
+        ii = min(max(math.floor((px - self.x[0]) / self.h + 0.5), 0), self.nx - 1)
+        jj = min(max(math.floor((py - self.y[0]) / self.h + 0.5), 0), self.ny - 1)
+        return (jj, ii)
+
+    def slide_move(self, px, py, e_here, searches_left):
+        """One move of a slide from (px, py), D16 "The cascade": (a) the step's search on the
+        circle of h, (b) the step's search on the circle of h/4, (c) the thorough search on the
+        circle of h; the first that finds a point strictly below e_here gives the move. Each
+        search counts one against the budget; stops early (no move) when it runs out.
+
+        Returns (move or None, searches used, stage); a move is (energy, x, y, class), stage the
+        index in SLIDE_CASCADE of the search that gave it (None without a move)."""
+        searches = {"step": self.step_search, "thorough": self.thorough_search}
+        used = 0
+        for stage, (kind, fraction) in enumerate(SLIDE_CASCADE):
+            if used == searches_left:
+                break
+            used += 1
+            best = searches[kind](px, py, fraction * self.h)
+            if best is not None and strictly_below(best[0], e_here):
+                return best, used, stage
+        return None, used, None
+
+    def slide(self, jj, ii):
+        """D16 step 2 from the grid point (jj, ii), where no neighbour is lower.
+
+        Returns ("corner", (j, i)): the trajectory rejoins the grid there; or
+        ("end", end_state, (j, i), (x, y, energy)): it ends EJECTION or stalled with that end
+        point, the part having stopped at (x, y)."""
+        e_start = self.point(jj, ii)["energy"]
+        px, py, e_here = self.x[ii], self.y[jj], e_start
+        x0, y0, h, nx, ny = self.x[0], self.y[0], self.h, self.nx, self.ny
+        searches_left = SLIDE_SEARCHES_PER_CELL * (nx + ny)  # defence in depth (D16)
+        while True:
+            move, used, stage = self.slide_move(px, py, e_here, searches_left)
+            searches_left -= used
+            if stage is not None:
+                self.cascade_moves[stage] += 1
+            if move is None:                                 # nothing lower, or no budget
+                self.slides[(jj, ii)] = "stalled"
+                self.slide_ends[(jj, ii)] = (px, py, e_here)
+                return "end", END_STALLED, self.nearest_grid_point(px, py), (px, py, e_here)
+            e_here, px, py, cls_here = move
+            inside = (-h / 2.0 <= px - x0 < (nx - 0.5) * h
+                      and -h / 2.0 <= py - y0 < (ny - 0.5) * h)
+            if cls_here != REACHED or not inside:
+                self.slides[(jj, ii)] = "ejection"
+                self.slide_ends[(jj, ii)] = (px, py, e_here)
+                return "end", END_EJECTION, self.nearest_grid_point(px, py), (px, py, e_here)
+            ci, cj = math.floor((px - x0) / h), math.floor((py - y0) / h)
+            corners = [(kj, ki) for ki, kj in ((ci, cj), (ci + 1, cj), (ci, cj + 1),
+                                               (ci + 1, cj + 1))
+                       if 0 <= ki < nx and 0 <= kj < ny
+                       and self.point(kj, ki)["point_class"] == REACHED]
+            chosen = next((c for c in corners if self.point(*c)["stable"]), None)
+            if chosen is None:
+                for c in corners:
+                    e_c = self.point(*c)["energy"]
+                    if strictly_below(e_c, e_start) and (
+                            chosen is None or e_c < self.point(*chosen)["energy"]):
+                        chosen = c
+            if chosen is not None:
+                self.slides[(jj, ii)] = "rejoined"
+                self.slide_ends[(jj, ii)] = (px, py, e_here)
+                return "corner", chosen
+
+    def trajectory_end(self, jj, ii):
+        """(end_state, end point (j, i), (x, y, energy) where the part stopped) of the
+        trajectory from a grid point."""
+        path = []
+        cur = (jj, ii)
+        while True:
+            if cur in self.end_point:
+                result = self.end_point[cur]
+                break
+            cj, ci = cur
+            rec = self.point(cj, ci)
+            here = (self.x[ci], self.y[cj], rec["energy"])
+            if rec["point_class"] != REACHED:
+                result = (END_EJECTION, cur, here)
+                break
+            if rec["stable"]:             # also a STABLE corner above the slide's start (D16 3)
+                result = (END_CAGED if rec["caged"] else END_TIP_PREHENSION, cur, here)
+                break
+            nxt = self.successor(cj, ci)
+            if nxt is None and self.trajectory == "sliding":
+                outcome = self.slide(cj, ci)
+                if outcome[0] == "corner":
+                    nxt = outcome[1]
+                else:
+                    path.append(cur)
+                    result = outcome[1:]
+                    break
+            if nxt is None:
+                result = (END_STALLED, cur, here)
+                break
+            path.append(cur)
+            cur = nxt
+        for p in path:
+            self.end_point[p] = result
+        self.end_point[cur] = result
+        return result
+
+
+def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None, ylim=None,
+              theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
+              reconfig_step=0.01, root_tol=1e-12, trajectory="sliding"):
+    """One energy map, point by point (M8). Arrays on (y, x) and (finger, y, x).
+
+    trajectory: "sliding" (D16, the kernels' default) or "grid8" (D7, the paper-like descent).
+    Besides the fields, "end_index" (flat (y, x) index of each start's end point, -1 off P_j),
+    "slides" ({(j, i): "rejoined" | "ejection" | "stalled"}, one entry per grid stall that slid;
+    empty for grid8) and "slide_ends" ({(j, i): (x, y, energy)}: where each slide left off, for a
+    stalled one where the part stopped) and "cascade_moves" (moves of all slides given by each
+    search of D16's cascade, in the order of SLIDE_CASCADE)."""
+    grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
+                         theta2_max, reconfig_step, root_tol, trajectory)
+    x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
 
     nan = float("nan")
     shape = (ny, nx)
@@ -525,115 +880,39 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
         "k1": np.full((2,) + shape, nan),
         "k2": np.full((2,) + shape, nan),
         "tip_overlap": np.zeros((2,) + shape, dtype=bool),
+        "end_index": np.full(shape, -1, dtype=np.int64),
     }
-    stable = np.zeros(shape, dtype=bool)
-    caged = np.zeros(shape, dtype=bool)
-    crossed = np.zeros(shape, dtype=bool)
+    caged_and_crossed = 0
 
     # --- Per point: configurations, energy, class, equilibrium, containment, opening -------
-    for jj, _j in enumerate(j_range):
-        py = y[jj]
-        for ii, i in enumerate(i_range):
-            px = x[ii]
-            dx_left, dx_right = offsets(i)
-            feasible = (py >= r - RANGE_TOL and finger_feasible(dx_left, py, r)
-                        and finger_feasible(dx_right, py, r))
-            if not feasible:
+    for jj in range(ny):
+        for ii in range(nx):
+            rec = grid.point(jj, ii)
+            if rec["point_class"] == INFEASIBLE:
                 continue                                    # class 0, NaN values (D6)
-            fingers = (solve(dx_left, py), solve(dx_right, py))
-            modes = [f["mode"] for f in fingers]
-            for fi, res in enumerate(fingers):
+            for fi, res in enumerate(rec["fingers"]):
                 out["finger_mode"][fi, jj, ii] = res["mode"]
                 out["theta1"][fi, jj, ii] = res["t1"]
                 out["theta2"][fi, jj, ii] = res["t2"]
                 out["k1"][fi, jj, ii] = res["k1"]
                 out["k2"][fi, jj, ii] = res["k2"]
                 out["tip_overlap"][fi, jj, ii] = res["tip_overlap"]
-            out["energy"][jj, ii] = (finger_energy(fingers[0], f_left, r1, r2, theta2_min)
-                                     + finger_energy(fingers[1], f_right, r1, r2, theta2_min))
+            for key in ("energy", "point_class", "contained", "l_open", "equilibrium",
+                        "caging_score"):
+                out[key][jj, ii] = rec[key]
+            caged_and_crossed += rec["caged"] and rec["crossed"]
 
-            if SLIPPED in modes:
-                cls = EJECT
-            elif VERTEX in modes:
-                cls = VERTEX_POINT
-            elif modes[0] == FREE and modes[1] == FREE:
-                cls = UNREACHED
-            else:
-                cls = REACHED
-            out["point_class"][jj, ii] = cls
-
-            pts = [[to_world(p, fi, w) for p in finger_points(res["t1"], res["t2"], l1, l2)]
-                   for fi, res in enumerate(fingers)]
-            (jl, bl, tl), (jr, br, tr) = pts
-            out["contained"][jj, ii] = contained([jl, bl, tl, tr, br, jr], px, py)
-            l_open, crossed[jj, ii] = opening(pts[0], pts[1])
-            out["l_open"][jj, ii] = l_open
-
-            if cls == REACHED:
-                normals = contact_normals(fingers[0], 0) + contact_normals(fingers[1], 1)
-                if abs(py - r) <= PALM_TOL and abs(px) <= w / 2.0 + PALM_TOL:
-                    normals.append((0.0, 1.0))
-                out["equilibrium"][jj, ii] = in_equilibrium(normals, mu)
-            stable[jj, ii] = cls == REACHED and out["equilibrium"][jj, ii]
-            caged[jj, ii] = (stable[jj, ii] and out["contained"][jj, ii]
-                             and l_open < 2.0 * r - RANGE_TOL)
-            if caged[jj, ii]:
-                out["caging_score"][jj, ii] = 1.0 - l_open / (2.0 * r)
-
-    # --- Trajectories: discrete steepest descent (M8, D7) ---------------------------------
-    cls = out["point_class"]
-    energy = out["energy"]
-    in_pj = cls == REACHED
-
-    def successor(jj, ii):
-        best, best_slope = None, 0.0
-        for di, dj in NEIGHBOURS:
-            ni, nj = ii + di, jj + dj
-            if not (0 <= ni < nx and 0 <= nj < ny) or cls[nj, ni] == INFEASIBLE:
-                continue
-            dist = h if (di == 0 or dj == 0) else h * math.sqrt(2.0)
-            slope = (energy[jj, ii] - energy[nj, ni]) / dist
-            if slope > best_slope:
-                best, best_slope = (nj, ni), slope
-        return best
-
-    end_point = {}
-
-    def trajectory_end(jj, ii):
-        """(end_state, end point) of the trajectory starting at a P_j point."""
-        path = []
-        cur = (jj, ii)
-        while True:
-            if cur in end_point:
-                result = end_point[cur]
-                break
-            cj, ci = cur
-            if not in_pj[cj, ci]:
-                result = (END_EJECTION, cur)
-                break
-            if stable[cj, ci]:
-                result = (END_CAGED if caged[cj, ci] else END_TIP_PREHENSION, cur)
-                break
-            nxt = successor(cj, ci)
-            if nxt is None:
-                result = (END_STALLED, cur)
-                break
-            path.append(cur)
-            cur = nxt
-        for p in path:
-            end_point[p] = result
-        end_point[cur] = result
-        return result
-
+    # --- Trajectories: discrete steepest descent (M8, D7) and sliding (D16) ------------------
     counts = {END_CAGED: 0, END_TIP_PREHENSION: 0, END_EJECTION: 0, END_STALLED: 0}
     lam = 0.0
     for jj in range(ny):
         for ii in range(nx):
-            if not in_pj[jj, ii]:
+            if out["point_class"][jj, ii] != REACHED:
                 out["end_state"][jj, ii] = END_NONE
                 continue
-            state, (ej, ei) = trajectory_end(jj, ii)
+            state, (ej, ei), _ = grid.trajectory_end(jj, ii)
             out["end_state"][jj, ii] = state
+            out["end_index"][jj, ii] = ej * nx + ei
             counts[state] += 1
             if state == END_CAGED:
                 lam += out["caging_score"][ej, ei]
@@ -643,5 +922,33 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
     out["n_tip_prehension"] = counts[END_TIP_PREHENSION]
     out["n_ejection"] = counts[END_EJECTION]
     out["n_stalled"] = counts[END_STALLED]
-    out["n_crossed_caged"] = int(np.count_nonzero(caged & crossed))
+    out["n_crossed_caged"] = int(caged_and_crossed)
+    out["slides"] = grid.slides
+    out["slide_ends"] = grid.slide_ends
+    out["cascade_moves"] = grid.cascade_moves
     return out
+
+
+def naive_trajectory(start, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05,
+                     xlim=None, ylim=None, theta2_min=math.radians(-5.0),
+                     theta2_max=math.radians(90.0), reconfig_step=0.01, root_tol=1e-12,
+                     trajectory="sliding"):
+    """The trajectory of one start of naive_map's grid (same arguments; start = (x, y), a grid
+    point), computing only the grid points it visits or looks at.
+
+    Returns a dict: end_state, end_index (flat (y, x) index; END_NONE and -1 off P_j), stop
+    ((x, y, energy) where the part stopped: off the grid for a slide that stalled or ejected;
+    None off P_j), slides, slide_ends and cascade_moves (as naive_map's, for the slides on the
+    way)."""
+    grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
+                         theta2_max, reconfig_step, root_tol, trajectory)
+    ii = int(np.argmin(np.abs(grid.x - start[0])))
+    jj = int(np.argmin(np.abs(grid.y - start[1])))
+    if abs(grid.x[ii] - start[0]) > GRID_TOL * h or abs(grid.y[jj] - start[1]) > GRID_TOL * h:
+        raise ValueError(f"start {start!r} is not a point of the grid")
+    out = {"slides": grid.slides, "slide_ends": grid.slide_ends,
+           "cascade_moves": grid.cascade_moves}
+    if grid.point(jj, ii)["point_class"] != REACHED:
+        return {"end_state": END_NONE, "end_index": -1, "stop": None, **out}
+    state, (ej, ei), stop = grid.trajectory_end(jj, ii)
+    return {"end_state": state, "end_index": ej * grid.nx + ei, "stop": stop, **out}

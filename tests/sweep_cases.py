@@ -20,7 +20,7 @@ TINY = {
     "commands": [{"f_left": 1.0, "f_right": 1.0}],
     "grid": {"h": 0.25, "bounds": "reach"},
     "limits": {"theta2_min_deg": -5, "theta2_max_deg": 90},
-    "accuracy": {"reconfig_step": 0.01, "root_tol": 1.0e-12, "trajectory": "discrete"},
+    "accuracy": {"reconfig_step": 0.01, "root_tol": 1.0e-12, "trajectory": "sliding"},
     "effects": {"friction": True, "tip_contact": False, "joint_springs": False,
                 "finger_collision": False},
     "run": {"sub_chunk_cells": 3},

@@ -78,42 +78,77 @@ def test_recommendation_is_the_cheapest_agreeing_setting():
             dict(axis="h", default=False, top1_agreement=0.5, seconds_per_map=0.1),
             dict(axis="h", default=False, top1_agreement=1.0, seconds_per_map=0.5),
             dict(axis="root_tol", default=False, top1_agreement=1.0, seconds_per_map=0.95),
+            dict(axis="reference/2", default=False, top1_agreement=1.0, seconds_per_map=3.0),
             dict(axis="reference", default=False, top1_agreement=1.0, seconds_per_map=0.01)]
     assert acc.recommend(rows) is rows[2]
     rows[2]["seconds_per_map"] = 0.95  # less than MIN_SAVING cheaper: keep the config's own
     assert acc.recommend(rows) is rows[0]
+    for r in rows[:4]:
+        r["top1_agreement"] = 0.5
+    assert acc.recommend(rows) is rows[4]  # the reference's settings one halving coarser
+    rows[4]["top1_agreement"] = 0.5
+    assert acc.recommend(rows) is rows[5]  # nothing cheaper agrees: the reference itself
 
 
 def test_accuracy_command_on_the_small_config(tmp_path):
     out = tmp_path / "acc"
     runner = CliRunner()
-    res = runner.invoke(main, ["accuracy", str(SMALL), "--out", str(out), "--no-progress"])
+    witness = "2,1.6,0.2,0.14,0.8,0.4,0.4"
+    res = runner.invoke(main, ["accuracy", str(SMALL), "--out", str(out), "--no-progress",
+                               "--map", witness])
     assert res.exit_code == 0, res.output
-    for name in ("accuracy.md", "accuracy.csv", "accuracy.png"):
+    for name in ("accuracy.md", "accuracy.csv", "accuracy.png", "convergence.png",
+                 "convergence.csv"):
         assert (out / name).stat().st_size > 0
+    scene = load_scene(SMALL)
     rows = list(csv.DictReader(open(out / "accuracy.csv")))
-    settings, _ = acc.ladder(load_scene(SMALL))
-    assert len(rows) == len(settings) + 1
+    settings, _ = acc.ladder(scene)
+    assert len(rows) == len(settings) + 2
     ref = [r for r in rows if r["axis"] == "reference"][0]
     assert float(ref["worst_error"]) == 0.0 and float(ref["top1_agreement"]) == 1.0
+    # the reference is one halving finer than the finest rung; its own check one coarser
+    finest = min(float(r["h"]) for r in rows if r["axis"] == "h")
+    assert float(ref["h"]) == pytest.approx(finest / 2)
+    coarse = [r for r in rows if r["axis"] == "reference/2"][0]
+    assert float(coarse["h"]) == pytest.approx(finest)
+    assert coarse["trajectory"] == ref["trajectory"] == "sliding"
     rec = [r for r in rows if r["recommended"] == "True"]
     assert len(rec) == 1 and float(rec[0]["top1_agreement"]) == 1.0
     assert {r["axis"] for r in rows} == {"h", "reconfig_step", "root_tol", "trajectory",
-                                          "reference"}
+                                          "reference", "reference/2"}
+    assert {r["setting"] for r in rows if r["axis"] == "trajectory"} == \
+        {"sliding", "grid8", "continuous"}
     for r in rows:
         assert 0.0 <= float(r["top5_overlap"]) <= 1.0
         assert -1.0 <= float(r["kendall_tau"]) <= 1.0
         assert float(r["median_error"]) <= float(r["worst_error"])
+    # convergence: every method at h, h/2, h/4, h/8; the change is |area - area at 2h|
+    conv = list(csv.DictReader(open(out / "convergence.csv")))
+    assert [(r["method"], float(r["h"])) for r in conv] == [
+        (m, scene.h / 2 ** n) for m in ("sliding", "grid8", "continuous") for n in range(4)]
+    for m in ("sliding", "grid8", "continuous"):
+        sel = [r for r in conv if r["method"] == m]
+        assert sel[0]["change"] == ""
+        for a, b in zip(sel, sel[1:]):
+            assert float(b["change"]) == pytest.approx(abs(float(b["caging_area"])
+                                                           - float(a["caging_area"])))
+        assert all(0.0 <= float(r["stalled_share"]) <= 1.0 for r in sel)
+    text = (out / "accuracy.md").read_text()
+    assert "Has the reference converged?" in text and "## Convergence as h halves" in text
+    assert "l1=2 l2=1.6 r1=0.2 r2=0.14 w=0.8, r=0.4 mu=0.4" in text  # the --map witness
     # resumable: a rerun reads the finished steps and rewrites none of them
     work = sorted(out.glob("work-*/*.npz"))
     stamps = [p.stat().st_mtime_ns for p in work]
-    res = runner.invoke(main, ["accuracy", str(SMALL), "--out", str(out), "--no-progress"])
+    res = runner.invoke(main, ["accuracy", str(SMALL), "--out", str(out), "--no-progress",
+                               "--map", witness])
     assert res.exit_code == 0, res.output
     assert [p.stat().st_mtime_ns for p in work] == stamps
-    assert "sweep accuracy" in (out / "accuracy.md").read_text()
+    assert f"sweep accuracy {SMALL} --map {witness}" in text or "--map" in text
 
 
-@pytest.mark.parametrize("args", [["--sample", "0"], ["--sample", "-3"]])
+@pytest.mark.parametrize("args", [["--sample", "0"], ["--sample", "-3"], ["--map", "1,2,3"],
+                                  ["--map", "2,1.6,0.2,0.14,0.8,-0.4,0.4"],
+                                  ["--map", "a,b,c,d,e,f,g"]])
 def test_accuracy_bad_input_exits_2_before_writing(tmp_path, args):
     out = tmp_path / "acc"
     res = CliRunner().invoke(main, ["accuracy", str(SMALL), "--out", str(out), *args])
@@ -123,7 +158,7 @@ def test_accuracy_bad_input_exits_2_before_writing(tmp_path, args):
 
 def test_accuracy_bad_config_exits_2(tmp_path):
     bad = tmp_path / "bad.yaml"
-    bad.write_text(SMALL.read_text().replace("trajectory: discrete", "trajectory: rk4"))
+    bad.write_text(SMALL.read_text().replace("trajectory: sliding", "trajectory: rk4"))
     res = CliRunner().invoke(main, ["accuracy", str(bad), "--out", str(tmp_path / "acc")])
     assert res.exit_code == 2
     assert not (tmp_path / "acc").exists()

@@ -171,9 +171,9 @@ def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
             finger_field(dxs, g.y, finger, solver, blocks, fingers, side)
         outs = new_outcome_arrays(*g.shape)
         summary = np.empty(len(SUMMARY_INDEX))
-        map_from_fingers(g.x, g.y, finger, Hand(DESIGN.w, 1.0, 1.0, g.h), blocks, fingers, outs,
-                         None, np.empty(g.x.size * g.y.size, dtype=np.int64), summary, True,
-                         True, caging)
+        map_from_fingers(g.x, g.y, finger, solver, Hand(DESIGN.w, 1.0, 1.0, g.h), blocks,
+                         fingers, outs, None, np.empty(g.x.size * g.y.size, dtype=np.int64),
+                         summary, True, True, caging)
         results[caging] = outs, summary
     (full, s_full), (energy, s_energy) = results[True], results[False]
     assert full.contained.any() and full.crossed.any() and (full.end_state != END_NONE).any()

@@ -6,8 +6,8 @@ import pytest
 
 from sweep.maps import compute_map
 from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, REACHED,
-                         Command, Design, Grid, Part)
-from sweep.plot import _title, plot_map, trajectory_path
+                         Accuracy, Command, Design, Grid, Part)
+from sweep.plot import _title, plot_map, sliding_points, trajectory_path
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -69,9 +69,11 @@ def test_plot_leaves_no_temp_file_when_saving_fails(small_map, tmp_path, monkeyp
 
 def test_plotted_trajectory_ends_match_the_kernel(small_map):
     """The picture's paths (walked with downhill_neighbour) end where the kernel says: at the
-    point `end_index` names, with the end state `end_state` says."""
-    f = small_map.fields
-    h = float(small_map.x[1] - small_map.x[0])
+    point `end_index` names, with the end state `end_state` says (grid8)."""
+    grid8 = compute_map(Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4), Command(1.0, 1.0),
+                        Grid(h=0.2), accuracy=Accuracy(trajectory="grid8"))
+    f = grid8.fields
+    h = float(grid8.x[1] - grid8.x[0])
     reached = f["point_class"] == REACHED
     stable = reached & f["equilibrium"]
     nx = f["energy"].shape[1]
@@ -85,6 +87,29 @@ def test_plotted_trajectory_ends_match_the_kernel(small_map):
                 (END_CAGED if f["end_state"][j, i] == END_CAGED else END_TIP_PREHENSION)
                 if stable[j, i] else END_STALLED)
         assert kind == f["end_state"].ravel()[p]
+
+
+def test_plotted_sliding_paths_end_where_the_kernel_says():
+    """A sliding map (the default): the picture's paths, slides included, end at the point
+    `end_index` names, and a stalled path's last position is within half a grid step of it."""
+    m = compute_map(Design(2.0, 1.6, 0.16, 0.06, 1.2), Part(0.4, 0.1), Command(1.0, 1.0),
+                    Grid(h=0.05, xlim=(-2.6, -1.0), ylim=(0.4, 2.2)))
+    f = m.fields
+    reached = f["point_class"] == REACHED
+    stable = reached & f["equilibrium"]
+    starts = np.flatnonzero(reached.ravel())
+    slid = 0
+    for p in starts[::5]:
+        pts, end = sliding_points(int(p), m, stable)
+        assert end == f["end_index"].ravel()[p]
+        j, i = divmod(end, m.x.size)
+        if f["end_state"].ravel()[p] == END_STALLED:
+            assert abs(pts[-1, 0] - m.x[i]) <= 0.5 * 0.05 + 1e-9
+            assert abs(pts[-1, 1] - m.y[j]) <= 0.5 * 0.05 + 1e-9
+        on_grid = np.isclose(pts[:, 0] / 0.05, np.round(pts[:, 0] / 0.05)) & \
+            np.isclose((pts[:, 1] - 0.4) / 0.05, np.round((pts[:, 1] - 0.4) / 0.05))
+        slid += int(not on_grid.all())
+    assert slid > 0  # some drawn paths contain a slide off the grid
 
 
 def test_title_says_when_the_map_is_a_user_window():

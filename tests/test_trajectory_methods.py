@@ -7,10 +7,10 @@ import pytest
 
 import naive
 from sweep.batch import cell_map_fields, summarize_cells
-from sweep.kernels.field import trajectory_ends
-from sweep.kernels.records import new_outcome_arrays
+from sweep.kernels.records import Hand, new_outcome_arrays
+from sweep.kernels.trajectory import trajectory_ends
 from sweep.kernels.streamline import streamline_ends
-from sweep.maps import compute_map
+from sweep.maps import compute_map, kernel_records
 from sweep.model import (
     END_CAGED,
     END_EJECTION,
@@ -21,6 +21,7 @@ from sweep.model import (
     Accuracy,
     Command,
     Design,
+    Effects,
     Grid,
     Limits,
     Part,
@@ -48,12 +49,22 @@ def stack_for(outs):
     return np.empty(outs.energy.size, dtype=np.int64)
 
 
+def grid8_ends(outs, h):
+    """The grid8 rule on hand-built outcomes (it reads no model: the records are placeholders)."""
+    finger, solver, blocks = kernel_records(Design(1.0, 1.0, 0.1, 0.1, 0.0), Part(0.4, 0.4),
+                                            Limits(), Accuracy(trajectory="grid8"), Effects())
+    ny, nx = outs.energy.shape
+    xs, ys = np.arange(nx) * h, 0.4 + np.arange(ny) * h
+    return trajectory_ends(outs, xs, ys, finger, solver, blocks, Hand(0.0, 1.0, 1.0, h),
+                           stack_for(outs), False)
+
+
 # --- discrete method: ties go to the first of E, NE, N, NW, W, SW, S, SE (MODEL 8) -------------
 def test_discrete_tie_goes_east_first():
     """Row energies [0, 1, 0]: from the middle, E and W are equally steep; MODEL 8 sends it E,
     so it ends at the east point and scores that point's 0.75 (W would score 0.25)."""
     outs = outcomes(np.array([[0.0, 1.0, 0.0]]), stable=[(0, 0), (0, 2)], scores=[0.25, 0.75])
-    lam = trajectory_ends(outs, 0.1, stack_for(outs))
+    lam = grid8_ends(outs, 0.1)
     assert outs.end_index[0, 1] == 2
     assert lam == pytest.approx(0.25 + 0.75 + 0.75)
 
@@ -61,7 +72,7 @@ def test_discrete_tie_goes_east_first():
 def test_discrete_tie_north_before_south():
     """Column energies [0, 1, 0] (j grows north): N comes before S in the order."""
     outs = outcomes(np.array([[0.0], [1.0], [0.0]]), stable=[(0, 0), (2, 0)], scores=[0.25, 0.75])
-    trajectory_ends(outs, 0.1, stack_for(outs))
+    grid8_ends(outs, 0.1)
     assert outs.end_index[1, 0] == 2  # flat index of (j=2, i=0) on a 1-wide grid
 
 
@@ -142,8 +153,11 @@ def test_continuous_map_is_consistent_and_matches_the_sweep_path():
     assert np.array_equal(sweep_fields["end_index"], f["end_index"])
 
 
-def test_discrete_is_the_default_and_unchanged():
-    m1 = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2))
+def test_sliding_is_the_default_and_discrete_means_grid8():
+    assert Accuracy().trajectory == "sliding"
+    assert Accuracy(trajectory="discrete") == Accuracy(trajectory="grid8")
+    m1 = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2),
+                     accuracy=Accuracy(trajectory="grid8"))
     m2 = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2),
                      accuracy=Accuracy(trajectory="discrete"))
     assert np.array_equal(m1.fields["end_index"], m2.fields["end_index"])

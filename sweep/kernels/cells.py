@@ -114,8 +114,8 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
         hand = Hand(ws[k], f_left, f_right, h)
-        map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
-                         False)  # summaries only
+        map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
+                         out[k], False)  # summaries only
         if manip is not None:
             collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
                                    ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
@@ -231,18 +231,17 @@ def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, the
                            theta2_max, solver, effects, out, manip):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
     manip: a ManipulationOut with one row per cell, or None."""
-    tip, springs, collision, trajectory = effects  # prange captures blocks only as arguments
+    tip, springs, collision = effects  # prange captures blocks only as arguments
     summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, trajectory, out, manip)
+                              theta2_max, solver, tip, springs, collision, out, manip)
 
 
 @njit(cache=True, parallel=True)
 def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, trajectory, out,
-                              manip):
+                              theta2_max, solver, tip, springs, collision, out, manip):
     for c in prange(cells.shape[0]):
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
-                       EffectBlocks(tip, springs, collision, trajectory), ws, steps, ncols[c],
+                       EffectBlocks(tip, springs, collision), ws, steps, ncols[c],
                        nys[c], h, f_left, f_right, out[c], manip, c)
 
 
@@ -261,12 +260,12 @@ def cell_map(finger, solver, effects, w, step, ncol, ny, h, f_left, f_right, eve
     summary = np.empty(N_SUMMARY)
     if with_forces:
         forces = new_force_arrays(ny, xs.shape[0])
-        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), effects, fingers, outs,
-                         forces, stack, summary, every_point)
+        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
+                         outs, forces, stack, summary, every_point)
     else:
         forces = new_force_arrays(0, 0)  # same return type either way
-        map_from_fingers(xs, ys, finger, Hand(w, f_left, f_right, h), effects, fingers, outs,
-                         None, stack, summary, every_point)
+        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
+                         outs, None, stack, summary, every_point)
     return xs, ys, fingers, outs, forces, summary
 
 
@@ -280,4 +279,5 @@ def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, y
     finger_field_serial(dx_right, ys, finger, solver, effects, fingers, 1)
     outs = new_outcome_arrays(ny, nx)
     stack = np.empty(ny * nx, dtype=np.int64)
-    map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out, False)
+    map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack, out,
+                     False)

@@ -10,7 +10,6 @@ with `prange` (one map, all threads), `finger_field_serial` and `map_from_finger
 sweep's own parallel loop over maps (Numba's default threading layer does not nest parallel
 regions).
 """
-import math
 
 import numpy as np
 from numba import njit, prange
@@ -22,21 +21,19 @@ from ..model import (
     END_NONE,
     END_STALLED,
     END_TIP_PREHENSION,
-    FREE,
     INFEASIBLE,
     RANGE_TOL,
     REACHED,
-    SLIPPED,
     UNREACHED,
-    VERTEX,
     VERTEX_POINT,
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
-from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
+from .finger import finger_statics, solve_finger
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
                    resolve_collisions, tip_clearance)
+from .point import classify_point, point_energy
 from .records import EffectBlocks, FingerState
-from .streamline import streamline_ends
+from .trajectory import trajectories
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
 N_SUMMARY = len(SUMMARY_FIELDS)
@@ -80,27 +77,23 @@ def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
 @njit(cache=True)
 def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    tip, springs, collision, trajectory = effects
-    finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, trajectory,
-                           fingers, side)
+    tip, springs, collision = effects
+    finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side)
 
 
 @njit(cache=True, parallel=True)
-def finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, trajectory,
-                           fingers, side):
+def finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side):
     """finger_field's parallel loop. The blocks come as arguments: a prange loop cannot capture
     a record of blocks, nor a record unpacked from one (parfor lowering finds no definition of
     it, numba 0.68.1), but it can capture a record that is an argument."""
     for j in prange(dys.shape[0]):
-        finger_row_of_blocks(j, dxs, dys[j], finger, solver, tip, springs, collision,
-                             trajectory, fingers, side)
+        finger_row_of_blocks(j, dxs, dys[j], finger, solver, tip, springs, collision, fingers,
+                             side)
 
 
 @njit(cache=True)
-def finger_row_of_blocks(j, dxs, dy, finger, solver, tip, springs, collision, trajectory,
-                         fingers, side):
-    finger_row(j, dxs, dy, finger, solver, EffectBlocks(tip, springs, collision, trajectory),
-               fingers, side)
+def finger_row_of_blocks(j, dxs, dy, finger, solver, tip, springs, collision, fingers, side):
+    finger_row(j, dxs, dy, finger, solver, EffectBlocks(tip, springs, collision), fingers, side)
 
 
 @njit(cache=True)
@@ -112,20 +105,6 @@ def finger_field_serial(dxs, dys, finger, solver, effects, fingers, side):
 # ---------------------------------------------------------------------------------------------
 # Per-point outcomes of a map
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def classify_point(y, r, mode_l, mode_r):
-    """MODEL 8 classes, first that applies."""
-    if y < r - RANGE_TOL or mode_l == OVERLAP or mode_r == OVERLAP:
-        return INFEASIBLE
-    if mode_l == SLIPPED or mode_r == SLIPPED:
-        return EJECT
-    if mode_l == VERTEX or mode_r == VERTEX:
-        return VERTEX_POINT
-    if mode_l == FREE and mode_r == FREE:
-        return UNREACHED
-    return REACHED
-
-
 @njit(cache=True)
 def fill_infeasible(j, i, fingers, outs, forces):
     """Fill values where the point does not exist (model-notes D6)."""
@@ -212,12 +191,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         a2l = t2[0, j, i]
         a1r = t1[1, j, i]
         a2r = t2[1, j, i]
-        energy[j, i] = (
-            finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
-            + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
-        if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
-            energy[j, i] += (spring_energy(a1l, a2l, springs, finger.theta2_min)
-                             + spring_energy(a1r, a2r, springs, finger.theta2_min))
+        energy[j, i] = point_energy(a1l, a2l, a1r, a2r, finger, hand, springs)
         eq = False
         if c == REACHED and equilibrium:
             eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
@@ -267,105 +241,6 @@ def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
 # Trajectories (MODEL 8): discrete steepest descent, each downhill step computed once
 # ---------------------------------------------------------------------------------------------
 # Neighbour order E, NE, N, NW, W, SW, S, SE (ties go to the first); j grows with y (north).
-NEIGHBOUR_DI = (1, 1, 0, -1, -1, -1, 0, 1)
-NEIGHBOUR_DJ = (0, 1, 1, 1, 0, -1, -1, -1)
-
-
-@njit(cache=True)
-def downhill_neighbour(energy, point_class, i, j, h):
-    """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
-    ny, nx = energy.shape
-    here = energy[j, i]
-    diagonal = h * math.sqrt(2.0)
-    best = -1
-    best_slope = 0.0
-    for n in range(8):
-        ii = i + NEIGHBOUR_DI[n]
-        jj = j + NEIGHBOUR_DJ[n]
-        if ii < 0 or ii >= nx or jj < 0 or jj >= ny:
-            continue
-        if point_class[jj, ii] == INFEASIBLE:
-            continue
-        distance = h if (NEIGHBOUR_DI[n] == 0 or NEIGHBOUR_DJ[n] == 0) else diagonal
-        slope = (here - energy[jj, ii]) / distance
-        if slope > best_slope:
-            best_slope = slope
-            best = jj * nx + ii
-    return best
-
-
-@njit(cache=True)
-def trajectory_ends(outs, h, stack):
-    """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
-    point of P_j (REACHED points).
-
-    A point's end is its downhill successor's end, so shared paths are walked once. `stack` is
-    scratch of size >= number of points. Returns the map score Lambda (MODEL 8).
-    """
-    energy = outs.energy
-    point_class = outs.point_class
-    end_state = outs.end_state
-    end_index = outs.end_index
-    equilibrium = outs.equilibrium
-    caged = outs.caged
-    caging_score = outs.caging_score
-    ny, nx = energy.shape
-    size = ny * nx
-    for p in range(size):
-        end_state.flat[p] = END_NONE
-        end_index.flat[p] = -1
-    for p0 in range(size):
-        j0 = p0 // nx
-        i0 = p0 - j0 * nx
-        if point_class[j0, i0] != REACHED or end_state.flat[p0] != END_NONE:
-            continue
-        depth = 0
-        p = p0
-        state = END_NONE
-        last = -1
-        while True:
-            j = p // nx
-            i = p - j * nx
-            if point_class[j, i] != REACHED:
-                state = END_EJECTION
-                last = p
-                break
-            if end_state.flat[p] != END_NONE:  # already resolved
-                state = end_state.flat[p]
-                last = end_index.flat[p]
-                break
-            stack[depth] = p
-            depth += 1
-            if equilibrium[j, i]:
-                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
-                last = p
-                break
-            q = downhill_neighbour(energy, point_class, i, j, h)
-            if q < 0:
-                state = END_STALLED
-                last = p
-                break
-            p = q
-        for s in range(depth):
-            end_state.flat[stack[s]] = state
-            end_index.flat[stack[s]] = last
-    score_sum = 0.0
-    for p in range(size):
-        if end_state.flat[p] == END_CAGED:
-            q = end_index.flat[p]
-            score_sum += caging_score.flat[q]
-    return score_sum
-
-
-@njit(cache=True)
-def trajectories(outs, h, stack, streamline_step):
-    """The map's trajectory method (an accuracy setting): discrete steepest descent when
-    `streamline_step` is None (pruned at compile time), else continuous streamlines."""
-    if streamline_step is None:
-        return trajectory_ends(outs, h, stack)
-    return streamline_ends(outs, h, stack, streamline_step)
-
-
 @njit(cache=True)
 def count_summary(outs, tip_overlap, score_sum, h, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY."""
@@ -416,8 +291,8 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # The map pipeline
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
-def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
-                     every_point, equilibrium=True, caging=True):
+def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, forces, stack,
+                     summary, every_point, equilibrium=True, caging=True):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
     summary row. Serial (the sweep calls it inside its own parallel loop over maps);
     `map_from_fingers_parallel` is the same pipeline with the outcome rows in parallel.
@@ -433,21 +308,21 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
                     fingers, outs, forces,
                     scratch, every_point, equilibrium, caging)
-    map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
-                       n_collision_changed)
+    map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
+                       caging, n_collision_changed)
 
 
 @njit(cache=True)
-def map_from_fingers_parallel(xs, ys, finger, hand, effects, fingers, outs, forces, stack,
-                              summary, every_point, equilibrium=True, caging=True):
+def map_from_fingers_parallel(xs, ys, finger, solver, hand, effects, fingers, outs, forces,
+                              stack, summary, every_point, equilibrium=True, caging=True):
     """map_from_fingers with the outcome rows in parallel (one map, all threads: compute_map).
     Rows are independent, so the results are those of the serial pipeline, bit for bit."""
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
                                              effects.finger_collision)
     outcome_rows_parallel(xs, ys, finger, hand, effects.joint_springs, effects.tip_contact,
                           fingers, outs, forces, every_point, equilibrium, caging)
-    map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
-                       n_collision_changed)
+    map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
+                       caging, n_collision_changed)
 
 
 @njit(cache=True, parallel=True)
@@ -462,11 +337,11 @@ def outcome_rows_parallel(xs, ys, finger, hand, springs, tip, fingers, outs, for
 
 
 @njit(cache=True)
-def map_after_outcomes(hand, effects, fingers, outs, stack, summary, caging,
-                       n_collision_changed):
+def map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
+                       caging, n_collision_changed):
     """Trajectories and the summary row of a map whose outcomes are filled."""
     if caging:
-        score_sum = trajectories(outs, hand.h, stack, effects.trajectory)
+        score_sum = trajectories(outs, xs, ys, finger, solver, effects, hand, stack)
     else:
         outs.end_state[:, :] = END_NONE
         outs.end_index[:, :] = -1

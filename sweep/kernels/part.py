@@ -349,44 +349,53 @@ def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
 
 
 @njit(cache=True)
-def resolve_collisions(ys, finger, w, fingers, collision):
-    """Apply finger_collision to solved finger fields in place; returns the number of points
-    where a finger's configuration changed (0 when the effect is off: None, compiled out).
+def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, k1r, k2r):
+    """finger_collision at one part position: (changed, left, right), each side (mode, t1, t2,
+    k1, k2). Only fingers that cross in their final configurations are re-run: elsewhere they
+    are taken not to have met on the way (model-notes D14). Unchanged when the effect is off
+    (None)."""
+    left = (mode_l, t1l, t2l, k1l, k2l)
+    right = (mode_r, t1r, t2r, k1r, k2r)
+    if collision is None:
+        return False, left, right
+    if mode_l < 0 or mode_r < 0:  # the part overlaps a finger's joint: infeasible
+        return False, left, right
+    if not fingers_cross(finger_polyline(0, t1l, t2l, finger.l1, finger.l2, w),
+                         finger_polyline(1, t1r, t2r, finger.l1, finger.l2, w)):
+        return False, left, right
+    p = meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
+    if p < 0.0:
+        return False, left, right
+    th = finger.theta2_min
+    cl, ml, a1l, a2l, b1l, b2l = stopped_finger(p, mode_l, t1l, t2l, k1l, k2l, th)
+    cr, mr, a1r, a2r, b1r, b2r = stopped_finger(p, mode_r, t1r, t2r, k1r, k2r, th)
+    return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
 
-    Only points whose fingers cross in their final configurations are re-run: elsewhere the
-    fingers are taken not to have met on the way (model-notes D14)."""
+
+@njit(cache=True)
+def resolve_collisions(ys, finger, w, fingers, collision):
+    """Apply finger_collision to solved finger fields in place (`collide` at every point);
+    returns the number of points where a finger's configuration changed (0 when the effect is
+    off: None, compiled out)."""
     if collision is None:
         return 0
     n_changed = 0
-    th = finger.theta2_min
     for j in range(ys.shape[0]):
         for i in range(fingers.mode.shape[2]):
-            ml = fingers.mode[0, j, i]
-            mr = fingers.mode[1, j, i]
-            if ml < 0 or mr < 0:  # the part overlaps a finger's joint: infeasible
+            changed, left, right = collide(
+                finger, w, collision,
+                fingers.mode[0, j, i], fingers.t1[0, j, i], fingers.t2[0, j, i],
+                fingers.k1[0, j, i], fingers.k2[0, j, i],
+                fingers.mode[1, j, i], fingers.t1[1, j, i], fingers.t2[1, j, i],
+                fingers.k1[1, j, i], fingers.k2[1, j, i])
+            if not changed:
                 continue
-            t1l = fingers.t1[0, j, i]
-            t2l = fingers.t2[0, j, i]
-            t1r = fingers.t1[1, j, i]
-            t2r = fingers.t2[1, j, i]
-            if not fingers_cross(finger_polyline(0, t1l, t2l, finger.l1, finger.l2, w),
-                                 finger_polyline(1, t1r, t2r, finger.l1, finger.l2, w)):
-                continue
-            p = meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
-            if p < 0.0:
-                continue
-            changed = False
+            n_changed += 1
             for side in range(2):
-                c, m, a1, a2, k1, k2 = stopped_finger(
-                    p, fingers.mode[side, j, i], fingers.t1[side, j, i], fingers.t2[side, j, i],
-                    fingers.k1[side, j, i], fingers.k2[side, j, i], th)
-                if c:
-                    changed = True
-                    fingers.mode[side, j, i] = m
-                    fingers.t1[side, j, i] = a1
-                    fingers.t2[side, j, i] = a2
-                    fingers.k1[side, j, i] = k1
-                    fingers.k2[side, j, i] = k2
-            if changed:
-                n_changed += 1
+                m, a1, a2, k1, k2 = left if side == 0 else right
+                fingers.mode[side, j, i] = m
+                fingers.t1[side, j, i] = a1
+                fingers.t2[side, j, i] = a2
+                fingers.k1[side, j, i] = k1
+                fingers.k2[side, j, i] = k2
     return n_changed

@@ -31,10 +31,13 @@ class FingerModel(NamedTuple):
 
 
 class SolverSettings(NamedTuple):
-    """Accuracy settings of the reconfiguration path (MODEL 5.3, 8)."""
+    """Accuracy settings (MODEL 8): of the reconfiguration path (MODEL 5.3) and of the
+    trajectories (a run-time choice, one branch per map)."""
 
-    reconfig_step: float  # step of theta1 along the path before bracketing a stop (rad)
-    root_tol: float       # width to which the stop is bracketed (rad)
+    reconfig_step: float    # step of theta1 along the path before bracketing a stop (rad)
+    root_tol: float         # width to which the stop is bracketed (rad)
+    trajectory: int         # model.TRAJECTORY_SLIDING, TRAJECTORY_GRID8 or TRAJECTORY_CONTINUOUS
+    streamline_step: float  # integrator step of the continuous method, in grid steps
 
 
 class EffectBlocks(NamedTuple):
@@ -51,12 +54,9 @@ class EffectBlocks(NamedTuple):
     #                           or TipContact
     joint_springs: object     # None (springs only order the closing)
     finger_collision: object  # None (the paper's fingers pass through each other)
-    trajectory: object        # None: discrete steepest descent; a float: continuous streamlines
-    #                           with that integrator step in grid steps (MODEL 8). A number, not
-    #                           a record: a prange loop cannot capture a record built from locals
 
 
-NO_EFFECTS = EffectBlocks(None, None, None, None)
+NO_EFFECTS = EffectBlocks(None, None, None)
 
 
 

@@ -1,0 +1,317 @@
+"""Trajectories of a map (MODEL 8): from every point of P_j downhill to where the part stops.
+
+Three methods, an accuracy setting (`SolverSettings.trajectory`, model-notes D16):
+
+- grid8 (the paper-like reference): discrete steepest descent over the 8 neighbours
+  (`downhill_neighbour`); a point whose every neighbour is uphill ends the trajectory, stalled.
+- sliding (the default): the same descent, but where every neighbour is uphill the part is not
+  taken to be stuck until the true energy says so. The energy has creases and walls (mode
+  boundaries, MODEL 8 "Creases") that run at any angle; a part on one slides along it, which no
+  8-neighbour step can follow. From such a point the part slides on the model's own energy,
+  evaluated off the grid (`point.point_outcome`): each step goes to the lowest point found on a
+  circle around it (`lowest_on_circle`: radius h, else h/4, else a thorough search of radius
+  h). The slide hands the part back to the grid at the first corner of its cell that is lower
+  than where it started (or stable), and ends stalled only where no search finds a lower point:
+  a true minimum of the energy that is not an equilibrium, to the searches' resolution (in the
+  base model mostly the corner where two walls of unresolved vertex contacts meet).
+- continuous: streamlines on the interpolated energy (`streamline.py`).
+
+A point's end is its successor's end, so shared paths are walked once; energies fall strictly
+along every path (grid steps and slides alike), so no path returns to a point.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from ..model import (
+    END_CAGED,
+    END_EJECTION,
+    END_NONE,
+    END_STALLED,
+    END_TIP_PREHENSION,
+    INFEASIBLE,
+    REACHED,
+    TRAJECTORY_GRID8,
+    TRAJECTORY_SLIDING,
+)
+from .point import point_outcome
+from .streamline import streamline_ends
+
+# The 8 neighbours in the order that breaks ties (MODEL 8): E, NE, N, NW, W, SW, S, SE.
+NEIGHBOUR_DI = (1, 1, 0, -1, -1, -1, 0, 1)
+NEIGHBOUR_DJ = (0, 1, 1, 1, 0, -1, -1, -1)
+
+# The slide's circle. Directions: 32, every 11.25 deg counter-clockwise from E, built from the
+# first quadrant by sign flips so that each is the exact mirror image in x of another (a
+# symmetric map slides symmetrically). The *step's search* uses every 4th (E, NE, N, ... as the
+# grid's neighbours) and SLIDE_REFINE halvings of the angle around the lowest (2 points each:
+# 45 deg -> 5.6 deg). The *thorough search* uses all 32, refined around each local minimum of
+# the circle (a narrow descending wedge between two walls is missed by 8 directions:
+# model-notes D16). From a position, the searches of SLIDE_CASCADE are tried in turn (radius
+# in grid steps, thorough or not) until one finds a lower point; where none does, the part
+# stalls. Each search costs 14 (step) or about 45 (thorough) evaluations of the model, and a
+# stall the whole cascade: the order puts the cheap searches first (model-notes D16, measured
+# in docs/performance.md).
+SLIDE_DIRECTIONS = 32
+SLIDE_CASCADE_RADIUS = (1.0, 0.25, 1.0)
+SLIDE_CASCADE_THOROUGH = (False, False, True)
+
+
+def _circle_directions(n):
+    quarter = [(math.cos(2.0 * math.pi * k / n), math.sin(2.0 * math.pi * k / n))
+               for k in range(n // 4 + 1)]
+    quarter[0] = (1.0, 0.0)
+    quarter[-1] = (0.0, 1.0)
+    upper = quarter + [(-c, s) for c, s in reversed(quarter[:-1])]   # 0 .. 180 deg
+    full = upper + [(c, -s) for c, s in reversed(upper[1:-1])]         # 180 .. 360 deg
+    return tuple(c for c, _ in full), tuple(s for _, s in full)
+
+
+SLIDE_DX, SLIDE_DY = _circle_directions(SLIDE_DIRECTIONS)
+SLIDE_STEP_STRIDE = SLIDE_DIRECTIONS // 8
+SLIDE_REFINE = 3
+# A slide step must lower the energy by more than this relative amount (round-off of the
+# energy, about 1e-16 relative, must not count as descent).
+SLIDE_REL = 1e-12
+# Defence in depth: a slide is at most this many circles per grid step of the map's size.
+SLIDE_STEPS_PER_CELL = 64
+
+
+@njit(cache=True)
+def max_slide_points(ny, nx):
+    """Positions a slide can visit at most (the length of a `path` array that holds any)."""
+    return SLIDE_STEPS_PER_CELL * (nx + ny) + 1
+
+# What a slide ends in (slide_successor's second value).
+SLIDE_REJOINS, SLIDE_EJECTS, SLIDE_STALLS = 0, 1, 2
+
+
+@njit(cache=True)
+def downhill_neighbour(energy, point_class, i, j, h):
+    """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
+    ny, nx = energy.shape
+    here = energy[j, i]
+    diagonal = h * math.sqrt(2.0)
+    best = -1
+    best_slope = 0.0
+    for n in range(8):
+        ii = i + NEIGHBOUR_DI[n]
+        jj = j + NEIGHBOUR_DJ[n]
+        if ii < 0 or ii >= nx or jj < 0 or jj >= ny:
+            continue
+        if point_class[jj, ii] == INFEASIBLE:
+            continue
+        distance = h if (NEIGHBOUR_DI[n] == 0 or NEIGHBOUR_DJ[n] == 0) else diagonal
+        slope = (here - energy[jj, ii]) / distance
+        if slope > best_slope:
+            best_slope = slope
+            best = jj * nx + ii
+    return best
+
+
+@njit(cache=True)
+def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand):
+    """(energy, class, unit direction ux, uy) of the lowest point found on the circle of radius
+    rho around world (x, y) (the search of the module's SLIDE_* constants; `thorough` for the
+    stall decision). Ties go to the first evaluated: directions counter-clockwise from E, then
+    each refinement's counter-clockwise side first. `scratch`: SLIDE_DIRECTIONS floats."""
+    stride = 1 if thorough else SLIDE_STEP_STRIDE
+    best = np.inf
+    best_class = INFEASIBLE
+    ux = 0.0
+    uy = 0.0
+    for n in range(0, SLIDE_DIRECTIONS, stride):
+        c, e = point_outcome(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n], finger, solver,
+                             effects, hand)
+        scratch[n] = e
+        if e < best:
+            best, best_class, ux, uy = e, c, SLIDE_DX[n], SLIDE_DY[n]
+    half = math.pi * stride / SLIDE_DIRECTIONS
+    if not thorough:
+        return refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver,
+                                effects, hand)
+    for n in range(SLIDE_DIRECTIONS):  # refine around every local minimum of the circle
+        e = scratch[n]
+        if not (e <= scratch[n - 1] and e <= scratch[(n + 1) % SLIDE_DIRECTIONS]) \
+                or not math.isfinite(e):
+            continue
+        e, c, vx, vy = refine_on_circle(x, y, rho, e, INFEASIBLE, SLIDE_DX[n], SLIDE_DY[n],
+                                        half, finger, solver, effects, hand)
+        if e < best:
+            best, best_class, ux, uy = e, c, vx, vy
+    return best, best_class, ux, uy
+
+
+@njit(cache=True)
+def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand):
+    """SLIDE_REFINE times: the directions `half` either side of (ux, uy) (counter-clockwise
+    first), the lower replacing it; `half` halves each time."""
+    for _ in range(SLIDE_REFINE):
+        cd = math.cos(half)
+        sd = math.sin(half)
+        cx, cy = ux, uy
+        for side in range(2):
+            s = sd if side == 0 else -sd
+            vx = cx * cd - cy * s
+            vy = cy * cd + cx * s
+            c, e = point_outcome(x + rho * vx, y + rho * vy, finger, solver, effects, hand)
+            if e < best:
+                best, best_class, ux, uy = e, c, vx, vy
+        half *= 0.5
+    return best, best_class, ux, uy
+
+
+@njit(cache=True)
+def nearest_grid_point(x, y, xs, ys, h):
+    """Flat index of the grid point nearest to world (x, y), clipped into the grid."""
+    nx = xs.shape[0]
+    i = min(max(int(math.floor((x - xs[0]) / h + 0.5)), 0), nx - 1)
+    j = min(max(int(math.floor((y - ys[0]) / h + 0.5)), 0), ys.shape[0] - 1)
+    return j * nx + i
+
+
+@njit(cache=True)
+def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, solver, effects,
+                    hand, path):
+    """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
+    energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
+    points written to `path`): the grid point where the slide rejoins the grid (lower than the
+    start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`
+    is None, or an array (n, 2) that receives the world positions of the slide (pictures,
+    tests)."""
+    ny, nx = energy.shape
+    h = hand.h
+    e_start = energy[j0, i0]
+    x = xs[i0]
+    y = ys[j0]
+    e_here = e_start
+    stage = 0
+    scratch = np.empty(SLIDE_DIRECTIONS)
+    n_path = record(path, 0, x, y)
+    for _ in range(max_slide_points(ny, nx) - 1):
+        rho = h * SLIDE_CASCADE_RADIUS[stage]
+        e, c, ux, uy = lowest_on_circle(x, y, rho, SLIDE_CASCADE_THOROUGH[stage], scratch,
+                                        finger, solver, effects, hand)
+        if not (e < e_here - SLIDE_REL * abs(e_here)):
+            stage += 1
+            if stage == len(SLIDE_CASCADE_RADIUS):
+                break
+            continue
+        x += rho * ux
+        y += rho * uy
+        e_here = e
+        stage = 0
+        n_path = record(path, n_path, x, y)
+        fi = (x - xs[0]) / h
+        fj = (y - ys[0]) / h
+        if c != REACHED or not (-0.5 <= fi < nx - 0.5 and -0.5 <= fj < ny - 0.5):
+            # the part left P_j, or the grid (a user window's edge)
+            return nearest_grid_point(x, y, xs, ys, h), SLIDE_EJECTS, n_path
+        # rejoin the grid at the lowest corner of the cell below the start's energy (a stable
+        # corner ends the trajectory whatever its energy)
+        ia = int(math.floor(fi))
+        ja = int(math.floor(fj))
+        best = -1
+        e_best = e_start - SLIDE_REL * abs(e_start)
+        for corner in range(4):
+            qi = ia + (corner & 1)
+            qj = ja + (corner >> 1)
+            if qi < 0 or qi >= nx or qj < 0 or qj >= ny or point_class[qj, qi] != REACHED:
+                continue
+            if equilibrium[qj, qi]:
+                best = qj * nx + qi
+                break
+            if energy[qj, qi] < e_best:
+                e_best = energy[qj, qi]
+                best = qj * nx + qi
+        if best >= 0:
+            return best, SLIDE_REJOINS, n_path
+    return nearest_grid_point(x, y, xs, ys, h), SLIDE_STALLS, n_path
+
+
+@njit(cache=True)
+def record(path, n, x, y):
+    """Write position n of a slide into `path` (None: not recorded); returns n + 1."""
+    if path is not None and n < path.shape[0]:
+        path[n, 0] = x
+        path[n, 1] = y
+    return n + 1
+
+
+@njit(cache=True)
+def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding):
+    """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
+    point of P_j (REACHED points): grid8, or with `sliding` the sliding method (module
+    docstring). `stack` is scratch of size >= number of points. Returns the map score Lambda
+    (MODEL 8)."""
+    energy = outs.energy
+    point_class = outs.point_class
+    end_state = outs.end_state
+    end_index = outs.end_index
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    caging_score = outs.caging_score
+    h = hand.h
+    ny, nx = energy.shape
+    size = ny * nx
+    for p in range(size):
+        end_state.flat[p] = END_NONE
+        end_index.flat[p] = -1
+    for p0 in range(size):
+        j0 = p0 // nx
+        i0 = p0 - j0 * nx
+        if point_class[j0, i0] != REACHED or end_state.flat[p0] != END_NONE:
+            continue
+        depth = 0
+        p = p0
+        state = END_NONE
+        last = -1
+        while True:
+            j = p // nx
+            i = p - j * nx
+            if point_class[j, i] != REACHED:
+                state = END_EJECTION
+                last = p
+                break
+            if end_state.flat[p] != END_NONE:  # already resolved
+                state = end_state.flat[p]
+                last = end_index.flat[p]
+                break
+            stack[depth] = p
+            depth += 1
+            if equilibrium[j, i]:
+                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
+                last = p
+                break
+            q = downhill_neighbour(energy, point_class, i, j, h)
+            if q < 0:
+                if not sliding:
+                    state = END_STALLED
+                    last = p
+                    break
+                q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
+                                             finger, solver, effects, hand, None)
+                if kind != SLIDE_REJOINS:
+                    state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
+                    last = q
+                    break
+            p = q
+        for s in range(depth):
+            end_state.flat[stack[s]] = state
+            end_index.flat[stack[s]] = last
+    score_sum = 0.0
+    for p in range(size):
+        if end_state.flat[p] == END_CAGED:
+            score_sum += caging_score.flat[end_index.flat[p]]
+    return score_sum
+
+
+@njit(cache=True)
+def trajectories(outs, xs, ys, finger, solver, effects, hand, stack):
+    """The map's trajectory method (SolverSettings.trajectory, a run-time choice per map)."""
+    if solver.trajectory == TRAJECTORY_GRID8:
+        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, False)
+    if solver.trajectory == TRAJECTORY_SLIDING:
+        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, True)
+    return streamline_ends(outs, hand.h, stack, solver.streamline_step)
