@@ -409,3 +409,25 @@ table_designs = st.tuples(
 def test_sliding_ends_match_reference_random_designs(design, commands):
     ref = reference_map(design, commands, h=0.2)
     assert_same_ends(kernel_map(design, commands, h=0.2), ref)
+
+
+def test_circle_ties_go_to_the_first_direction_from_east():
+    """On the symmetry axis of a symmetric map the circle's directions come in mirror pairs of
+    exactly equal energy (the directions are exact mirror images, D16). At (0, 2.0) of the
+    crease map, h = 0.05, the lowest of the step's search is the pair E / W: the first
+    evaluated, E, is kept."""
+    from sweep.kernels.point import point_outcome
+    from sweep.kernels.records import Hand
+    from sweep.kernels.trajectory import SLIDE_DIRECTIONS, lowest_on_circle
+    from sweep.maps import kernel_records
+    from sweep.model import Accuracy, Design, Effects, Limits, Part
+
+    design, part, h = Design(2.0, 1.6, 0.16, 0.06, 1.2), Part(0.4, 0.1), 0.05
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
+    hand = Hand(design.w, 1.0, 1.0, h)
+    e, _, ux, uy = lowest_on_circle(0.0, 2.0, h, False, np.empty(SLIDE_DIRECTIONS), finger,
+                                    solver, blocks, hand)
+    east = point_outcome(h, 2.0, finger, solver, blocks, hand)[1]
+    west = point_outcome(-h, 2.0, finger, solver, blocks, hand)[1]
+    assert east == west  # an exact tie
+    assert (ux, uy) == (1.0, 0.0) and e == east
