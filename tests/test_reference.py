@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 
 import naive
 from naive import naive_finger, naive_map
+from strategies import paper_table_designs
 
 TH2_MIN = math.radians(-5.0)
 TH2_MAX = math.radians(90.0)
@@ -192,15 +193,7 @@ def test_fast_window_matches_reference(xlim, ylim):
 
 
 # Random designs from the paper's table (integer indices, MODEL 1) on coarse grids.
-table_designs = st.tuples(
-    st.integers(0, 8).map(lambda i: 0.4 + i * 0.2),       # l1
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # l2
-    st.integers(0, 4).map(lambda i: 0.04 + i * 0.04),     # r1
-    st.integers(0, 4).map(lambda i: 0.02 + i * 0.04),     # r2
-    st.integers(0, 5).map(lambda i: 0.0 + i * 0.4),       # w
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # r
-    st.integers(0, 3).map(lambda i: 0.1 + i * 0.3),       # mu
-)
+table_designs = paper_table_designs()
 
 
 @given(table_designs, st.sampled_from([0.2, 0.25]))

@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 
 import naive
 from naive import naive_map, naive_point, naive_trajectory
+from strategies import paper_table_designs
 
 # The design of MODEL 8 "Creases": grid8 stalls there on most of the map as h shrinks.
 CREASE_DESIGN = (2.0, 1.6, 0.16, 0.06, 1.2, 0.4, 0.1)      # l1, l2, r1, r2, w, r, mu
@@ -393,15 +394,7 @@ def test_naive_point_equals_the_map_on_grid_points(design, h):
 # ---------------------------------------------------------------------------------------------
 # Random designs from the paper's table
 # ---------------------------------------------------------------------------------------------
-table_designs = st.tuples(
-    st.integers(0, 8).map(lambda i: 0.4 + i * 0.2),       # l1
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # l2
-    st.integers(0, 4).map(lambda i: 0.04 + i * 0.04),     # r1
-    st.integers(0, 4).map(lambda i: 0.02 + i * 0.04),     # r2
-    st.integers(0, 5).map(lambda i: 0.0 + i * 0.4),       # w
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # r
-    st.integers(0, 3).map(lambda i: 0.1 + i * 0.3),       # mu
-)
+table_designs = paper_table_designs()
 
 
 @settings(max_examples=30)

@@ -29,6 +29,7 @@ from hypothesis import strategies as st
 import naive
 import naive_tip
 from naive_tip import PROXIMAL_TIP, TIP_ONLY, finger_holds, naive_tip_finger, naive_tip_map
+from strategies import paper_table_designs
 from sweep.model import (DISTAL_ONLY, END_TIP_PREHENSION, PROXIMAL_ONLY, REACHED, SLIPPED,
                          VERTEX, VERTEX_POINT)
 
@@ -569,15 +570,7 @@ def test_kernel_map_unequal_commands_and_odd_palm_matches_reference():
 
 
 # Random designs from the paper's table (integer indices, MODEL 1) on coarse grids.
-table_designs = st.tuples(
-    st.integers(0, 8).map(lambda i: 0.4 + i * 0.2),       # l1
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # l2
-    st.integers(0, 4).map(lambda i: 0.04 + i * 0.04),     # r1
-    st.integers(0, 4).map(lambda i: 0.02 + i * 0.04),     # r2
-    st.integers(0, 5).map(lambda i: 0.0 + i * 0.4),       # w
-    st.integers(0, 3).map(lambda i: 0.4 + i * 0.4),       # r
-    st.sampled_from([0.0, 0.1, 0.4, 1.0]),                # mu
-)
+table_designs = paper_table_designs(mu=st.sampled_from([0.0, 0.1, 0.4, 1.0]))
 
 
 @needs_kernel
