@@ -8,8 +8,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from sweep.kernels.part import meeting_progress, resolve_collisions, stopped_finger
+from sweep.kernels.collision import meeting_progress, resolve_collisions, stopped_finger
 from sweep.kernels.records import FingerCollision, new_finger_arrays
 from sweep.maps import compute_map, kernel_records
 from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
@@ -168,7 +170,7 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
     unit of progress); the answer must be that of testing every node. The every-node search is
     written here from paths_cross_at, on random closing paths of random designs and widths
     (w = 0 included: shared base)."""
-    from sweep.kernels.part import paths_cross_at
+    from sweep.kernels.collision import paths_cross_at
 
     def every_node(t1l, t2l, t1r, t2r, finger, w):
         th = finger.theta2_min
@@ -204,3 +206,119 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
         assert meeting_progress(*args, COLLISION) == expected, args
         n_met += expected >= 0.0
     assert n_met > 50  # the sample has meetings to find, not only misses
+
+
+# --- the map's way (resolve_collisions) against the reference search, bit for bit -----------
+# resolve_collisions finds the meeting from the symmetric closing and the first contact in
+# closed form, and replays the reference's bisection (kernels/collision.py); the reference,
+# resolve_collisions_reference, steps and bisects at every crossed point. Same bits asked.
+def _settled_fields(design, part, h):
+    """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
+    from sweep.kernels.cells import cell_map
+    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
+    _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+    _, ys, fingers, _, _, _ = cell_map(finger, solver, blocks, design.w,
+                                       palm_half_width_steps(design.w, h), i1, j1 + 1, h, 1.0,
+                                       1.0, True, False)
+    return finger, ys, fingers
+
+
+def _copy(fingers):
+    return type(fingers)(*(a.copy() for a in fingers))
+
+
+def _assert_same_fingers(a, b):
+    for name, x, y in zip(a._fields, a, b):
+        assert np.array_equal(x, y, equal_nan=True), name
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_map_way_gives_the_reference_search_bits(seed):
+    """Random designs and parts of the paper table (w = l1 and w = 0 included: a distal joint
+    lands on the other finger's base at t1 = pi, the bases coincide), whole maps at h = 0.1."""
+    from sweep.kernels.collision import resolve_collisions_reference
+    rng = np.random.default_rng(seed)
+    n_met = 0
+    for k in range(3):
+        l1 = 0.4 + 0.2 * int(rng.integers(0, 9))
+        w = [0.0, round(l1, 1) if l1 <= 2.0 else 2.0, 0.4 * int(rng.integers(0, 6))][k]
+        design = Design(l1, 0.4 + 0.4 * int(rng.integers(0, 4)),
+                        0.04 + 0.04 * int(rng.integers(0, 5)),
+                        0.02 + 0.04 * int(rng.integers(0, 5)), w)
+        part = Part(0.4 + 0.4 * int(rng.integers(0, 4)), 0.1 + 0.3 * int(rng.integers(0, 4)))
+        finger, ys, settled = _settled_fields(design, part, 0.1)
+        fast, reference = _copy(settled), _copy(settled)
+        n_fast = resolve_collisions(ys, finger, w, fast, COLLISION)
+        n_reference = resolve_collisions_reference(ys, finger, w, reference, COLLISION)
+        assert n_fast == n_reference
+        _assert_same_fingers(fast, reference)
+        n_met += n_fast
+    assert n_met > 100  # the sample has meetings to find
+
+
+@given(st.floats(0.4, 2.0), st.floats(0.4, 1.6), st.sampled_from([0.0, 0.4, 0.8, 1.2, 2.0]),
+       st.integers(0, 2**31))
+def test_map_way_gives_the_reference_search_bits_on_any_fingers(l1, l2, w, seed):
+    """Settled angles drawn at random (not only those a part makes), each point's fingers
+    anywhere in their ranges, modes mixed: the meeting and the stopped fingers are the
+    reference's bits."""
+    from sweep.kernels.collision import resolve_collisions_reference
+    rng = np.random.default_rng(seed)
+    finger = finger_record(l1, l2)
+    n = 60
+    fingers = new_finger_arrays(2, 1, n)
+    fingers.mode[:] = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=(2, 1, n))
+    fingers.t1[:] = rng.uniform(0.0, math.pi, size=(2, 1, n))
+    fingers.t2[:] = rng.uniform(TH2MIN, TH2MAX, size=(2, 1, n))
+    fingers.t1[:, :, :10] = math.pi  # free fingers: the paths of the unreached region
+    fingers.t2[:, :, :10] = TH2MAX
+    fingers.t2[:, :, 10:20] = TH2MIN  # distal on its stop: a strike in the rigid sweep
+    fingers.k1[:] = rng.uniform(0.0, l1, size=(2, 1, n))
+    fingers.k2[:] = 0.0
+    fingers.tip_overlap[:] = False
+    fast, reference = _copy(fingers), _copy(fingers)
+    ys = np.array([1.0])
+    assert resolve_collisions(ys, finger, w, fast, COLLISION) == \
+        resolve_collisions_reference(ys, finger, w, reference, COLLISION)
+    _assert_same_fingers(fast, reference)
+
+
+def test_sweep_way_gives_the_reference_search_summaries():
+    """The sweep (shared fields, link vectors, the per-thread memo across the cells of one
+    geometry group) against maps whose fingers the reference resolves: every summary field,
+    bit for bit, n_collision_changed included."""
+    from sweep.batch import summarize_cells
+    from sweep.kernels import cells as cell_kernels
+    from sweep.kernels.collision import resolve_collisions_reference
+    from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
+    from sweep.kernels.records import NO_EFFECTS, Hand, new_outcome_arrays
+    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    from sweep.model import Command
+
+    h = 0.1
+    widths = np.array([0.0, 0.4, 1.2, 2.0])
+    rng = np.random.default_rng(5)
+    # one geometry group (l1, l2, r) and a cell of another: the memo is reused and cleared
+    cells = [(2.0, 1.6, r1, r2, 0.4, mu) for r1, r2, mu in
+             zip(rng.choice([0.04, 0.12, 0.2], 5), rng.choice([0.02, 0.1, 0.18], 5),
+                 rng.choice([0.1, 0.4, 1.0], 5))] + [(1.2, 0.8, 0.08, 0.1, 0.8, 0.4)]
+    cells = np.array(cells)
+    out = summarize_cells(cells, widths, Command(), h, Limits(), Accuracy(),
+                          Effects(finger_collision=True))
+    for c, cell in enumerate(cells):
+        for k, w in enumerate(widths):
+            design, part = Design(*cell[:4], w), Part(*cell[4:])
+            finger, solver, _ = kernel_records(design, part, Limits(), Accuracy(), Effects())
+            _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+            step, ny = palm_half_width_steps(w, h), j1 + 1
+            shared, m_lo, ys = cell_kernels.shared_finger_field(
+                finger, solver, NO_EFFECTS, np.array([step]), np.array([i1]), ny, h)
+            xs, fingers = cell_kernels.gather_fingers(shared, m_lo, step, i1, ny, h)
+            n_changed = resolve_collisions_reference(ys, finger, w, fingers, COLLISION)
+            outs = new_outcome_arrays(ny, xs.size)
+            summary = np.empty(N_SUMMARY)
+            map_from_fingers(xs, ys, finger, Hand(w, 1.0, 1.0, h), NO_EFFECTS, fingers, outs,
+                             None, np.empty(xs.size * ny, dtype=np.int64), summary, False)
+            summary[S_COLLISION_CHANGED] = n_changed
+            assert np.array_equal(out[c, k], summary, equal_nan=True), (cell, w)

@@ -7,6 +7,7 @@ finger offset -i - s (model-notes D1). The offsets are the same floating-point n
 direct computation uses, so the maps are bitwise identical to `compute_map`'s. Each map then goes
 through the one map pipeline, `field.map_from_fingers`.
 """
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -19,6 +20,7 @@ from .records import (
     EffectBlocks,
     FingerModel,
     Hand,
+    SettledFingers,
     new_finger_arrays,
     new_force_arrays,
     new_outcome_arrays,
@@ -90,13 +92,15 @@ def gather_row(src, dst, side, m_lo, step, ncol):
 
 @njit(cache=True)
 def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, manip,
-                   c):
+                   c, memo, memo_key):
     """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
     i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
     ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
-    receives the cell's manipulation metric data (MODEL 10).
+    receives the cell's manipulation metric data (MODEL 10). With finger_collision, `memo`
+    (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it) are this thread's memo
+    of meetings (records.SettledFingers), cleared when the links change.
     """
     shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
     if manip is not None:
@@ -109,13 +113,26 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
         a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
         manip.n_entries[c] = 0
         links, statics = shared_finger_links_and_statics(shared, finger)
+    elif effects.finger_collision is not None:
+        links = shared_finger_links(shared, finger)
+    if effects.finger_collision is not None and (memo_key[0] != finger.l1
+                                                 or memo_key[1] != finger.l2):
+        memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+        memo_key[0] = finger.l1
+        memo_key[1] = finger.l2
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
         hand = Hand(ws[k], f_left, f_right, h)
-        map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
-                         False)  # summaries only
+        if effects.finger_collision is None:
+            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
+                             False)  # summaries only
+        else:  # the settled fingers' links, as gather_fingers reads the shared field
+            map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
+                             False, True, True,
+                             SettledFingers(links, ncols[k] - steps[k] - m_lo, -1,
+                                            -ncols[k] - steps[k] - m_lo, 1, memo[k]))
         if manip is not None:
             collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
                                    ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
@@ -124,13 +141,11 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
 
 
 @njit(cache=True)
-def shared_finger_links_and_statics(shared, finger):
-    """Per point of a cell's shared finger field, what every width's map reads from it for the
-    manipulation metric: the link vectors l1 (cos t1, sin t1) and l2 (cos phi, sin phi) in the
-    finger's frame, and the finger's statics per unit tension (determined, resultant x, y)."""
+def shared_finger_links(shared, finger):
+    """Per point of a cell's shared finger field, the link vectors l1 (cos t1, sin t1) and
+    l2 (cos phi, sin phi) in the finger's frame: (4, y, offset)."""
     ny, nm = shared.mode.shape[1], shared.mode.shape[2]
     links = np.empty((4, ny, nm))
-    statics = np.empty((3, ny, nm))
     for j in range(ny):
         for m in range(nm):
             # what finger_polyline forms, so world coordinates match it bit for bit
@@ -140,6 +155,19 @@ def shared_finger_links_and_statics(shared, finger):
             links[1, j, m] = l1s
             links[2, j, m] = l2c
             links[3, j, m] = l2s
+    return links
+
+
+@njit(cache=True)
+def shared_finger_links_and_statics(shared, finger):
+    """Per point of a cell's shared finger field, what every width's map reads from it for the
+    manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
+    unit tension (determined, resultant x, y)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = shared_finger_links(shared, finger)
+    statics = np.empty((3, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
             st = finger_statics_at(shared, 0, j, m, finger)
             statics[0, j, m] = 1.0 if st.determined else 0.0
             statics[1, j, m] = st.resultant_x
@@ -228,22 +256,32 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @njit(cache=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, effects, out, manip):
+                           theta2_max, solver, effects, out, manip, n_threads):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
-    manip: a ManipulationOut with one row per cell, or None."""
+    manip: a ManipulationOut with one row per cell, or None; n_threads: Numba's thread count
+    (numba.get_num_threads(), which a cached kernel cannot call)."""
     tip, springs, collision, trajectory = effects  # prange captures blocks only as arguments
+    memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
+    if collision is not None and cells.shape[0] > 0:
+        memo_shape = (n_threads, ws.shape[0], nys.max(), 2 * ncols.max() + 1, 5)
+    memo = np.empty(memo_shape)
+    memo_key = np.full((memo_shape[0], 2), np.nan)
     summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, trajectory, out, manip)
+                              theta2_max, solver, tip, springs, collision, trajectory, out, manip,
+                              memo, memo_key)
 
 
 @njit(cache=True, parallel=True)
 def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
                               theta2_max, solver, tip, springs, collision, trajectory, out,
-                              manip):
+                              manip, memo, memo_key):
     for c in prange(cells.shape[0]):
+        t = numba.get_thread_id() if memo.shape[0] > 0 else 0
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision, trajectory), ws, steps, ncols[c],
-                       nys[c], h, f_left, f_right, out[c], manip, c)
+                       nys[c], h, f_left, f_right, out[c], manip, c,
+                       memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
+                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0))
 
 
 @njit(cache=True)

@@ -33,8 +33,9 @@ from ..model import (
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
+from .collision import resolve_collisions
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   resolve_collisions, tip_clearance)
+                   tip_clearance)
 from .records import EffectBlocks, FingerState
 from .streamline import streamline_ends
 
@@ -417,7 +418,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
 def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack, summary,
-                     every_point, equilibrium=True, caging=True):
+                     every_point, equilibrium=True, caging=True, links=None):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
     summary row. Serial (the sweep calls it inside its own parallel loop over maps);
     `map_from_fingers_parallel` is the same pipeline with the outcome rows in parallel.
@@ -425,9 +426,10 @@ def map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, forces, stack
     Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
     equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
-    point, so a branch costs nothing measurable (docs/effects.md)."""
+    point, so a branch costs nothing measurable (docs/effects.md). `links`: the settled
+    fingers' link vectors for finger_collision (the sweep's, `collision.resolve_collisions`)."""
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
-                                             effects.finger_collision)
+                                             effects.finger_collision, links)
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,

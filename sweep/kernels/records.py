@@ -90,6 +90,22 @@ class FingerCollision(NamedTuple):
     tol: float
 
 
+class SettledFingers(NamedTuple):
+    """What the sweep hands `collision.resolve_collisions` about a map's settled fingers, from
+    its cell's shared finger field: the link vectors of every shared point (`links`,
+    (4, y, offset): l1 cos t1, l1 sin t1, l2 cos phi, l2 sin phi), where the left and right
+    finger of world column i read offset start + stride * i, and `memo` (y, x, 5): per point
+    the settled angles (t1 left, t2 left, t1 right, t2 right) last met at this width by the
+    same thread, with their meeting (cells of one geometry group share most settled fingers)."""
+
+    links: np.ndarray
+    left_start: int
+    left_stride: int
+    right_start: int
+    right_stride: int
+    memo: np.ndarray
+
+
 class Hand(NamedTuple):
     """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
 
