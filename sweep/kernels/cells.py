@@ -21,6 +21,7 @@ from .records import (
     FingerModel,
     Hand,
     SettledFingers,
+    finger_blocks,
     new_finger_arrays,
     new_force_arrays,
     new_outcome_arrays,
@@ -49,7 +50,7 @@ def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
     for j in range(ny):
         ys[j] = finger.r + j * h
     shared = new_finger_arrays(1, ny, nm)
-    finger_field_serial(dxs, ys, finger, solver, effects, shared, 0)
+    finger_field_serial(dxs, ys, finger, solver, finger_blocks(effects), shared, 0)
     return shared, m_lo, ys
 
 
@@ -314,8 +315,8 @@ def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, y
     ny = ys.shape[0]
     nx = xs.shape[0]
     fingers = new_finger_arrays(2, ny, nx)
-    finger_field_serial(dx_left, ys, finger, solver, effects, fingers, 0)
-    finger_field_serial(dx_right, ys, finger, solver, effects, fingers, 1)
+    finger_field_serial(dx_left, ys, finger, solver, finger_blocks(effects), fingers, 0)
+    finger_field_serial(dx_right, ys, finger, solver, finger_blocks(effects), fingers, 1)
     outs = new_outcome_arrays(ny, nx)
     stack = np.empty(ny * nx, dtype=np.int64)
     map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out, False)

@@ -59,6 +59,14 @@ class EffectBlocks(NamedTuple):
 NO_EFFECTS = EffectBlocks(None, None, None, None)
 
 
+@njit(cache=True)
+def finger_blocks(effects):
+    """The blocks one finger's solution depends on (tip_contact, joint_springs): the finger
+    kernels compiled for a scene serve every scene that differs only in map-level blocks
+    (finger_collision, the trajectory method), which saves compiling them again."""
+    return EffectBlocks(effects.tip_contact, effects.joint_springs, None, None)
+
+
 
 class TipContact(NamedTuple):
     """The tip_contact effect (MODEL 9, model-notes D15): the tip and the distal joint are real
