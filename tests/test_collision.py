@@ -322,3 +322,28 @@ def test_sweep_way_gives_the_reference_search_summaries():
                              None, np.empty(xs.size * ny, dtype=np.int64), summary, False)
             summary[S_COLLISION_CHANGED] = n_changed
             assert np.array_equal(out[c, k], summary, equal_nan=True), (cell, w)
+
+
+@given(st.integers(1, 600), st.floats(0.0, 1.0), st.sampled_from([0.01, 0.003, 0.05]),
+       st.sampled_from([1e-12, 1e-10, 1e-15]))
+def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, step, tol):
+    """bisect_by_comparison runs the reference's bisection on integer mantissas where both
+    ends share a binade; the floating-point steps, written here, must give the same bits."""
+    from sweep.kernels.collision import REPLAY_WINDOW, bisect_by_comparison
+    lo, hi = (n - 1) * step, n * step
+    tau = lo + where * (hi - lo)
+    expected = (lo, hi, False)
+    a, b = lo, hi
+    for _ in range(200):
+        if b - a <= tol:
+            expected = (a, b, False)
+            break
+        mid = 0.5 * (a + b)
+        if abs(mid - tau) <= REPLAY_WINDOW:
+            expected = (a, b, True)
+            break
+        if mid > tau:
+            b = mid
+        else:
+            a = mid
+    assert bisect_by_comparison(lo, hi, tau, tol) == expected

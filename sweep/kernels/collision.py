@@ -325,8 +325,41 @@ def predicted_meeting(t1l, t2l, t1r, t2r, finger, w, collision, a, work):
 @njit(cache=True)
 def bisect_by_comparison(lo, hi, tau, tol):
     """The reference's bisection steps while the midpoint is farther than REPLAY_WINDOW from
-    tau (decided by comparison; selects, not branches): (lo, hi, stopped at a midpoint near
-    tau)."""
+    tau (decided by comparison): (lo, hi, stopped at a midpoint near tau).
+
+    Where lo and hi share a binade [2^e, 2^(e+1)) the steps run on the integer mantissas
+    M = x 2^(53 - e), exactly as the floating-point ones: lo + hi rounds M_lo + M_hi to even,
+    and halving it is exact, so M_mid = q + (s & q & 1) with s = M_lo + M_hi, q = s >> 1
+    (half the latency of the floating-point chain)."""
+    m_lo, e_lo = math.frexp(lo)
+    m_hi, e_hi = math.frexp(hi)
+    if lo <= 0.0 or e_lo != e_hi:
+        return bisect_by_comparison_float(lo, hi, tau, tol)
+    scale = 53 - e_lo
+    a = int(math.ldexp(m_lo, 53))
+    b = int(math.ldexp(m_hi, 53))
+    t = int(math.ldexp(math.frexp(tau)[0], 53))
+    done = int(math.floor(math.ldexp(tol, scale)))
+    near = int(math.floor(math.ldexp(REPLAY_WINDOW, scale)))
+    stopped = False
+    for _ in range(200):
+        if b - a <= done:
+            break
+        s = a + b
+        q = s >> 1
+        mid = q + (s & q & 1)
+        if abs(mid - t) <= near:
+            stopped = True
+            break
+        up = mid > t
+        b = mid if up else b
+        a = a if up else mid
+    return math.ldexp(float(a), -scale), math.ldexp(float(b), -scale), stopped
+
+
+@njit(cache=True)
+def bisect_by_comparison_float(lo, hi, tau, tol):
+    """bisect_by_comparison in floating point (lo and hi in different binades)."""
     for _ in range(200):
         if hi - lo <= tol:
             return lo, hi, False
@@ -430,8 +463,10 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
         ph = work[6 + PHASE_SIZE * n_phase:6 + PHASE_SIZE * (n_phase + 1)]
         n_phase += 1
         e += 1
+        limit = search_limit(ph, best)
+        limit_pa = limit_pseudo_angle(limit)
         for f in range(2):
-            p = pair_contact(ph, f, 2, 1, best, finger)
+            p = pair_contact(ph, f, 2, 1, limit, limit_pa, finger)
             if p == UNSURE:
                 return UNSURE
             best = min(best, p)
@@ -441,19 +476,42 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
         ph = work[6 + PHASE_SIZE * k:6 + PHASE_SIZE * (k + 1)]
         if ph[0] >= best:
             break
+        limit = search_limit(ph, best)
+        limit_pa = limit_pseudo_angle(limit)
         for pair in range(12):  # vertex finger f, vertex v (J, B, T), segment (prox, dist)
             f = pair // 6
             v = (pair % 6) // 2
             seg = pair % 2
             if v == 2 and seg == 1:
                 continue  # done
-            if v == 0 and seg == 0 and w == 0.0:
-                continue  # shared base: the proximal links meet only at a distal joint
-            p = pair_contact(ph, f, v, seg, best, finger)
+            if v == 0 and (seg == 0 and w == 0.0 or palm_out_of_reach(ph, 1 - f)):
+                continue
+            p = pair_contact(ph, f, v, seg, limit, limit_pa, finger)
             if p == UNSURE:
                 return UNSURE
-            best = min(best, p)
+            if p < best:
+                best = p
+                limit = search_limit(ph, best)
+                limit_pa = limit_pseudo_angle(limit)
     return best if best < math.inf else NO_CONTACT
+
+
+@njit(cache=True)
+def search_limit(ph, before):
+    """How far into phase `ph` a pair's contact is searched: to the earliest contact found
+    (plus the largest touching shift), or a little past the phase's end (a contact at the end
+    is found in it)."""
+    return min(before + TOUCH_SHIFT_MAX, ph[1] + PHASE_OVERLAP) - ph[0]
+
+
+@njit(cache=True)
+def palm_out_of_reach(ph, g):
+    """Finger g's links cannot reach the other finger's palm joint J in phase `ph`: sweeping
+    rigidly with t1 short of pi, its links stay off the palm line except on its own side of
+    the palm, where they dip below it (t1 < -theta2_min); only at t1 = pi does its proximal
+    link lie on the palm, reaching the other base. (With w = 0 the proximal links share J
+    and meet only at a distal joint: first_contact leaves that pair out.)"""
+    return int(ph[2 + g]) == 2 and ph[1] + PHASE_OVERLAP < math.pi - 1e-6
 
 
 @njit(cache=True)
@@ -482,10 +540,10 @@ def set_phase(ph, p0, p1, t1l, t2l, t1r, t2r, finger, w, cache):
 
 
 @njit(cache=True)
-def pair_contact(ph, f, v, seg, before, finger):
+def pair_contact(ph, f, v, seg, limit, limit_pa, finger):
     """When vertex v of finger f first comes within RANGE_TOL of segment `seg` of the other
-    finger during phase `ph` (see set_phase), if before `before`: the progress, else
-    NO_CONTACT (UNSURE if grazing)."""
+    finger during phase `ph` (see set_phase), if within `limit` of the phase's start
+    (`limit_pa` its limit_pseudo_angle): the progress, else NO_CONTACT (UNSURE if grazing)."""
     g = 1 - f
     p0 = ph[0]
     # the vertex turns about its joint vc at rate sv, the segment about sc at ss, or rest
@@ -499,8 +557,6 @@ def pair_contact(ph, f, v, seg, before, finger):
     uy = ph[5 + 6 * g + 2 * seg]
     vx = ph[4 + 6 * f + 2 * v]
     vy = ph[5 + 6 * f + 2 * v]
-    # a contact at the phase's end is found in it (a little past its end)
-    limit = min(before + TOUCH_SHIFT_MAX, ph[1] + PHASE_OVERLAP) - p0
     ex = ph[16 + 4 * g + 2 * seg]
     ey = ph[17 + 4 * g + 2 * seg]
     length = finger.l1 if seg == 0 else finger.l2
@@ -508,13 +564,13 @@ def pair_contact(ph, f, v, seg, before, finger):
         cvx = ph[4 + 6 * f + 2 * vc]
         cvy = ph[5 + 6 * f + 2 * vc]
         theta, speed = one_term_root(cvx - ux, cvy - uy, vx - cvx, vy - cvy, sv, ex, ey,
-                                     length, limit)
+                                     length, limit, limit_pa)
     else:
         csx = ph[4 + 6 * g + 2 * sc]
         csy = ph[5 + 6 * g + 2 * sc]
         if sv == 0.0:  # the vertex rests: it turns the other way about Cs, in the frame
             theta, speed = one_term_root(csx - ux, csy - uy, vx - csx, vy - csy, -ss, ex, ey,
-                                         length, limit)
+                                         length, limit, limit_pa)
         else:
             cvx = ph[4 + 6 * f + 2 * vc]
             cvy = ph[5 + 6 * f + 2 * vc]
@@ -594,11 +650,12 @@ def contact_or_not(g, speed, nd):
 
 
 @njit(cache=True)
-def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max):
+def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max, limit_pseudo_angle):
     """vertex_segment_contact for Y(theta) = K + R(w theta) X, w = +-1: a circle about K of
     radius |X|, met by the segment {t u, 0 <= t <= nd} where
     t^2 - 2 t (u . K) + |K|^2 - |X|^2 = 0, i.e. t = b +- sqrt(disc) with b = u . K and
-    disc = |X|^2 - (u x K)^2; the point crosses the line there at speed sqrt(disc)."""
+    disc = |X|^2 - (u x K)^2; the point crosses the line there at speed sqrt(disc).
+    `limit_pseudo_angle`: pseudo_angle of theta_max (4 or more: any turn)."""
     rho2 = xx * xx + xy * xy
     f_start = ux * (ky + xy) - uy * (kx + xx)  # signed distance to the line at theta = 0
     reach2 = rho2 * theta_max * theta_max  # |dY/dtheta| = |X|
@@ -623,7 +680,11 @@ def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max):
             continue
         zx = t * ux - kx  # the contact point less the centre: X turned by w theta
         zy = t * uy - ky
-        turn = (w * math.atan2(xx * zy - xy * zx, xx * zx + xy * zy)) % (2.0 * math.pi)
+        sin_turn = w * (xx * zy - xy * zx)
+        cos_turn = xx * zx + xy * zy
+        if pseudo_angle(cos_turn / rho2, sin_turn) > limit_pseudo_angle:
+            continue  # turned farther than theta_max (checked without the arctangent)
+        turn = math.atan2(sin_turn, cos_turn) % (2.0 * math.pi)
         if turn <= theta_max:
             best = min(best, turn)
     if best == math.inf:
@@ -631,6 +692,21 @@ def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max):
     if speed < GRAZING_SPEED:
         return UNSURE, 0.0
     return best, speed
+
+
+@njit(cache=True)
+def pseudo_angle(cos_a, sin_a):
+    """A monotone function of the angle a in [0, 2 pi) from its cosine and the sign of its
+    sine: 1 - cos a on [0, pi], 3 + cos a on (pi, 2 pi); 4 and more for a >= 2 pi."""
+    return 1.0 - cos_a if sin_a >= 0.0 else 3.0 + cos_a
+
+
+@njit(cache=True)
+def limit_pseudo_angle(theta_max):
+    """pseudo_angle of a search limit (with a margin: the arctangent decides near it)."""
+    if theta_max >= 2.0 * math.pi:
+        return 5.0
+    return pseudo_angle(math.cos(theta_max), math.sin(theta_max)) + 1e-9
 
 
 @njit(cache=True)
