@@ -2,14 +2,14 @@
 
 Two workloads, both summaries only, as `sweep run` computes them:
 - the paper sample of scripts/bench_compare.py: 64 random cells of the paper table (seed 1)
-  x 6 widths = 384 maps, one kernel call;
+  x 6 widths = 384 maps, one kernel call (`--cells 96`: the sample of scripts/bench.py);
 - the issue's 1,200 maps: the 150 designs with l1 = 2, l2 = 1.6 (all r1, r2, w), parts
   r in {0.4, 0.8} x all four mu, one kernel call per geometry group (l1, l2, r) of 100 cells,
   as the runner's sub-chunks.
 Each repeat times both scenes in one process (kernels compiled or loaded first), the order
 alternating; prints every repeat, the medians and the ratio collision / base.
 
-    .venv/bin/python scripts/bench_collision.py [--repeats 7] [--h 0.05]
+    .venv/bin/python scripts/bench_collision.py [--repeats 7] [--h 0.05] [--cells 64]
 
 On this machine run it in its own session with a raised autogroup (docs/performance.md):
 `setsid -w sh -c 'echo -10 > /proc/self/autogroup; exec nice -n -10 "$@"' _ .venv/bin/python
@@ -59,11 +59,12 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--h", type=float, default=0.05)
+    ap.add_argument("--cells", type=int, default=64, help="paper sample size (bench.py: 96)")
     args = ap.parse_args()
     print(f"# bench_collision {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
           f"h = {args.h}, {args.repeats} alternating repeats")
-    for label, (groups, widths) in (("paper sample (64 cells x 6 widths = 384 maps)",
-                                     paper_sample()),
+    for label, (groups, widths) in ((f"paper sample ({args.cells} cells x 6 widths = "
+                                     f"{6 * args.cells} maps)", paper_sample(args.cells)),
                                     ("issue's 1,200 maps (l1 = 2, l2 = 1.6)", issue_1200())):
         for effects in SCENES.values():  # compile or load the kernels of both scenes
             summarize_cells(groups[0][:1], widths, Command(), 0.1, Limits(), Accuracy(),

@@ -233,7 +233,8 @@ UNSURE = -1.0            # a contact search that could not decide
 PHASE_SIZE = 24          # a phase in first_contact: start, end, 2 motions, 2 x 3 vertices,
 #                          2 x 2 links' unit vectors
 SETTLED = 6 + 5 * PHASE_SIZE  # where the scratch holds the settled links (settle_links)
-WORK_SIZE = SETTLED + 12  # scratch: 6 events, up to 5 phases, 2 x 6 settled links
+HINT = SETTLED + 12      # and the pair (f v seg as 6 f + 2 v + seg) that met first last time
+WORK_SIZE = HINT + 1     # scratch: 6 events, up to 5 phases, 2 x 6 settled links, the hint
 
 
 @njit(cache=True)
@@ -433,8 +434,9 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
     finger rests or turns about a fixed point at unit rate (the right counter-clockwise, the
     left clockwise), so every vertex-on-segment contact is a root of a short trigonometric sum
     (`vertex_segment_contact`). A tip meeting the other distal link is the usual first
-    contact: those two pairs are followed through the phases first, and every other pair is
-    then searched only before the earliest contact found."""
+    contact: those two pairs and the pair that met first at the previous point (work[HINT])
+    are followed through the phases first, and every other pair is then searched only before
+    the earliest contact found."""
     th = finger.theta2_min
     events = work[:6]
     events[0] = a
@@ -465,8 +467,8 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
         e += 1
         limit = search_limit(ph, best)
         limit_pa = limit_pseudo_angle(limit)
-        for f in range(2):
-            p = pair_contact(ph, f, 2, 1, limit, limit_pa, finger)
+        for pair in (5, 11, int(work[HINT])):  # each tip on the other distal link, the hint
+            p = pair_contact(ph, pair // 6, (pair % 6) // 2, pair % 2, limit, limit_pa, finger)
             if p == UNSURE:
                 return UNSURE
             best = min(best, p)
@@ -482,7 +484,7 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
             f = pair // 6
             v = (pair % 6) // 2
             seg = pair % 2
-            if v == 2 and seg == 1:
+            if pair == 5 or pair == 11 or pair == int(work[HINT]):
                 continue  # done
             if v == 0 and (seg == 0 and w == 0.0 or palm_out_of_reach(ph, 1 - f)):
                 continue
@@ -491,6 +493,7 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
                 return UNSURE
             if p < best:
                 best = p
+                work[HINT] = pair  # the next point of the row is likely to meet the same way
                 limit = search_limit(ph, best)
                 limit_pa = limit_pseudo_angle(limit)
     return best if best < math.inf else NO_CONTACT
@@ -804,6 +807,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
     nx = fingers.mode.shape[2]
     meet = np.empty(nx)
     work = np.empty(WORK_SIZE)
+    work[HINT] = 5
     n_changed = 0
     for j in range(ys.shape[0]):
         for i in range(nx):
