@@ -93,7 +93,7 @@ def gather_row(src, dst, side, m_lo, step, ncol):
 
 @njit(cache=True)
 def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, manip,
-                   c, memo, memo_key):
+                   c, memo, memo_key, memo_next):
     """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
@@ -101,7 +101,8 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
     ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
     receives the cell's manipulation metric data (MODEL 10). With finger_collision, `memo`
     (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it) are this thread's memo
-    of meetings (records.SettledFingers), cleared when the links change.
+    of meetings (records.SettledFingers), filled when `memo_next` (the next cell has the same
+    links), cleared when the links change.
     """
     shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
     if manip is not None:
@@ -116,11 +117,13 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
         links, statics = shared_finger_links_and_statics(shared, finger)
     elif effects.finger_collision is not None:
         links = shared_finger_links(shared, finger)
-    if effects.finger_collision is not None and (memo_key[0] != finger.l1
-                                                 or memo_key[1] != finger.l2):
-        memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
-        memo_key[0] = finger.l1
-        memo_key[1] = finger.l2
+    memo_read = False
+    if effects.finger_collision is not None:
+        memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
+        if memo_next and not memo_read:
+            memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+            memo_key[0] = finger.l1
+            memo_key[1] = finger.l2
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
@@ -133,7 +136,8 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
             map_from_fingers(xs, ys, finger, hand, effects, fingers, outs, None, stack, out[k],
                              False, True, True,
                              SettledFingers(links, ncols[k] - steps[k] - m_lo, -1,
-                                            -ncols[k] - steps[k] - m_lo, 1, memo[k]))
+                                            -ncols[k] - steps[k] - m_lo, 1, memo[k],
+                                            memo_read, memo_next))
         if manip is not None:
             collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
                                    ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
@@ -278,11 +282,14 @@ def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, 
                               manip, memo, memo_key):
     for c in prange(cells.shape[0]):
         t = numba.get_thread_id() if memo.shape[0] > 0 else 0
+        memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
+                     and cells[c + 1, 1] == cells[c, 1])
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision, trajectory), ws, steps, ncols[c],
                        nys[c], h, f_left, f_right, out[c], manip, c,
                        memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
-                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0))
+                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),
+                       memo_next)
 
 
 @njit(cache=True)

@@ -828,7 +828,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
                     and fingers.t1[1, j, i - 1] == t1r and fingers.t2[1, j, i - 1] == t2r:
                 meet[i] = meet[i - 1]  # the same fingers as the left neighbour
             else:
-                if settled is not None:
+                if settled is not None and settled.memo_read:
                     memo = settled.memo
                     if memo[j, i, 0] == t1l and memo[j, i, 1] == t2l and memo[j, i, 2] == t1r \
                             and memo[j, i, 3] == t2r:
@@ -850,7 +850,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
                                      sym_meeting, work,
                                      fingers_cross(settled_polyline(0, w, cache),
                                                    settled_polyline(1, w, cache)))
-            if settled is not None:
+            if settled is not None and settled.memo_write:
                 memo = settled.memo
                 memo[j, i, 0] = t1l
                 memo[j, i, 1] = t2l

@@ -104,7 +104,9 @@ class SettledFingers(NamedTuple):
     (4, y, offset): l1 cos t1, l1 sin t1, l2 cos phi, l2 sin phi), where the left and right
     finger of world column i read offset start + stride * i, and `memo` (y, x, 5): per point
     the settled angles (t1 left, t2 left, t1 right, t2 right) last met at this width by the
-    same thread, with their meeting (cells of one geometry group share most settled fingers)."""
+    same thread, with their meeting (cells of one geometry group share most settled fingers),
+    read if `memo_read` (it holds this cell's links) and written if `memo_write` (the next
+    cell has the same links)."""
 
     links: np.ndarray
     left_start: int
@@ -112,6 +114,8 @@ class SettledFingers(NamedTuple):
     right_start: int
     right_stride: int
     memo: np.ndarray
+    memo_read: bool
+    memo_write: bool
 
 
 class Hand(NamedTuple):
