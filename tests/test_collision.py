@@ -347,3 +347,28 @@ def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, ste
         else:
             a = mid
     assert bisect_by_comparison(lo, hi, tau, tol) == expected
+
+
+@given(st.floats(0.4, 2.0), st.floats(0.4, 1.6), st.sampled_from([0.0, 0.4, 0.8, 1.2, 2.0]),
+       st.integers(0, 2**31))
+def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
+    """collide (one part position, no map: the trajectories' off-grid points) finds the
+    reference's meeting and stops the fingers as resolve_collisions_reference would."""
+    from sweep.kernels.collision import collide, settled_fingers_cross
+    rng = np.random.default_rng(seed)
+    finger = finger_record(l1, l2)
+    for _ in range(20):
+        t1 = [math.pi if rng.random() < 0.2 else rng.uniform(0.0, math.pi) for _ in range(2)]
+        t2 = [TH2MIN if rng.random() < 0.3 else rng.uniform(TH2MIN, TH2MAX) for _ in range(2)]
+        modes = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=2)
+        k1 = rng.uniform(0.0, l1, size=2)
+        changed, left, right = collide(finger, w, COLLISION, modes[0], t1[0], t2[0], k1[0], 0.0,
+                                       modes[1], t1[1], t2[1], k1[1], 0.0)
+        p = -1.0
+        if settled_fingers_cross(t1[0], t2[0], t1[1], t2[1], finger, w):
+            p = meeting_progress(t1[0], t2[0], t1[1], t2[1], finger, w, COLLISION)
+        expected = [stopped_finger(p, modes[s], t1[s], t2[s], k1[s], 0.0, TH2MIN)
+                    if p >= 0.0 else (False, modes[s], t1[s], t2[s], k1[s], 0.0)
+                    for s in range(2)]
+        assert changed == (expected[0][0] or expected[1][0])
+        assert tuple(left) == tuple(expected[0][1:]) and tuple(right) == tuple(expected[1][1:])

@@ -864,6 +864,50 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
 
 
 @njit(cache=True)
+def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, k1r, k2r):
+    """finger_collision at one part position, anywhere (no map around it): (changed, left,
+    right), each side (mode, t1, t2, k1, k2). The reference's answer (`meeting_progress` at a
+    point whose settled fingers cross, model-notes D14), found as a map finds it but with the
+    symmetric closing as the first phase of the contact search (`meeting_at`). Unchanged when
+    the effect is off (None)."""
+    left = (mode_l, t1l, t2l, k1l, k2l)
+    right = (mode_r, t1r, t2r, k1r, k2r)
+    if collision is None:
+        return False, left, right
+    if mode_l < 0 or mode_r < 0:  # the part overlaps a finger's joint: infeasible
+        return False, left, right
+    work = np.empty(WORK_SIZE)
+    p = meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work)
+    if p < 0.0:
+        return False, left, right
+    th = finger.theta2_min
+    cl, ml, a1l, a2l, b1l, b2l = stopped_finger(p, mode_l, t1l, t2l, k1l, k2l, th)
+    cr, mr, a1r, a2r, b1r, b2r = stopped_finger(p, mode_r, t1r, t2r, k1r, k2r, th)
+    return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
+
+
+@njit(cache=True)
+def meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work):
+    """The meeting of one point, -1 if its settled fingers do not cross or do not meet on the
+    way: the reference's bits (`meeting_progress`), predicted from the first contact from the
+    start of the closing (its first phase is the symmetric rigid sweep) and replayed; the
+    reference itself where a check fails. `work`: scratch of WORK_SIZE."""
+    cache = work[SETTLED:SETTLED + 12]
+    for s in range(2):
+        t1 = t1l if s == 0 else t1r
+        t2 = t2l if s == 0 else t2r
+        l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
+        settle_links(cache, s, t1, t2, l1c, l1s, l2c, l2s)
+    if not fingers_cross(settled_polyline(0, w, cache), settled_polyline(1, w, cache)):
+        return -1.0
+    work[HINT] = 5
+    p = predicted_meeting(t1l, t2l, t1r, t2r, finger, w, collision, 0.0, work)
+    if p != UNSURE:
+        return p
+    return meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
+
+
+@njit(cache=True)
 def meeting_of(t1l, t2l, t1r, t2r, finger, w, collision, sym_node, sym_meeting, work,
                crossed):
     """The reference's meeting of one point (-1: the fingers are left as they settled)."""
