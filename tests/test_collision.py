@@ -372,3 +372,48 @@ def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
                     for s in range(2)]
         assert changed == (expected[0][0] or expected[1][0])
         assert tuple(left) == tuple(expected[0][1:]) and tuple(right) == tuple(expected[1][1:])
+
+
+# --- forces and the manipulation metric with finger_collision (model-notes D17) --------------
+def test_forces_are_undetermined_exactly_where_a_finger_rests_on_the_other():
+    """A finger stopped on the other touches it: that contact's force is not in the model's
+    statics, so neither finger's forces are determined there; everywhere else the fingers
+    are the settled ones and so are their forces (compared with the base scene's)."""
+    design, part = Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4)
+    base = compute_map(design, part, grid=Grid(h=0.1), forces=True)
+    m = compute_map(design, part, grid=Grid(h=0.1), forces=True,
+                    effects=Effects(finger_collision=True))
+    changed = ((m.fields["theta1"] != base.fields["theta1"])
+               | (m.fields["theta2"] != base.fields["theta2"])).any(axis=0)
+    changed &= base.fields["point_class"] != 0
+    assert changed.sum() > 100
+    determined = m.fields["forces_determined"]
+    assert not determined[:, changed].any()
+    for name in ("resultant_force_x", "resultant_force_y", "forces_determined"):
+        assert np.array_equal(m.fields[name][:, ~changed], base.fields[name][:, ~changed],
+                              equal_nan=True), name
+
+
+def test_manipulation_with_collision_is_the_base_scene_without_crossed_fingers():
+    """With finger_collision the counted poses are the base scene's whose fingers do not
+    cross: where they would, the effect stops a finger on the other and the pose is dropped
+    (D17); nothing else changes. So per part, Scenario B's reduction (every pose's kept
+    forces) under the effect is the base scene's 'uncrossed' one, bit for bit, and nothing
+    crossed is left."""
+    from sweep.batch import manipulation_cells, part_lattice_columns
+
+    widths = np.array([0.0, 0.4, 0.8])
+    cells = np.array([(2.0, 1.6, r1, r2, 0.4, 0.4) for r1, r2 in
+                      ((0.2, 0.14), (0.12, 0.06), (0.08, 0.1))] + [(1.2, 0.8, 0.16, 0.1, 0.4, 0.4)])
+    n_col = part_lattice_columns(widths.max(), 2.0, 1.6, 0.4, 0.1)
+    args = (cells, widths, 0.1, Limits(), Accuracy())
+    extra = (np.arange(len(cells)), np.zeros((len(cells), 2), dtype=np.int64),
+             np.full(len(cells), n_col))
+    _, base = manipulation_cells(*args, Effects(), *extra)
+    _, coll = manipulation_cells(*args, Effects(finger_collision=True), *extra)
+    b_all, b_uncrossed = base.parts[(0, 0)]["all"], base.parts[(0, 0)]["uncrossed"]
+    c_all, c_uncrossed = coll.parts[(0, 0)]["all"], coll.parts[(0, 0)]["uncrossed"]
+    assert b_all.rows.shape[0] > b_uncrossed.rows.shape[0] > 100  # crossed poses counted
+    for c in (c_all, c_uncrossed):
+        for name, x in b_uncrossed.to_arrays().items():
+            assert np.array_equal(c.to_arrays()[name], x), name

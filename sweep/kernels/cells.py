@@ -12,7 +12,8 @@ import numpy as np
 from numba import njit, prange
 
 from ..model import REACHED
-from .field import N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, map_from_fingers
+from .field import (N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, fingers_touch,
+                    map_from_fingers)
 from .part import (fingers_cross, link_vectors, part_contained, polyline_from_links,
                    tip_clearance, touches_palm)
 from .hull import convex_hull, inscribed_radius
@@ -139,8 +140,9 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
                                             -ncols[k] - steps[k] - m_lo, 1, memo[k],
                                             memo_read, memo_next))
         if manip is not None:
-            collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
-                                   ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
+            collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
+                                   steps[k], ncols[k], ncol_max, k, manip, c, a_count, a_fx,
+                                   a_fy)
     if manip is not None:
         manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
 
@@ -181,13 +183,15 @@ def shared_finger_links_and_statics(shared, finger):
 
 
 @njit(cache=True)
-def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, step, ncol,
+def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
                            ncol_max, k, manip, c, a_count, a_fx, a_fy):
     """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
-    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9).
-    Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces (each command
-    F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose buffers. Forces are
-    the fingers' per-unit-tension resultants (world frame) times S_geo."""
+    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9; not
+    where finger_collision stopped a finger on the other, D17: `fingers` are the map's, after
+    the effect). Elsewhere the fingers are the shared field's, whose links and statics are
+    precomputed. Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces
+    (each command F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose
+    buffers. Forces are the fingers' per-unit-tension resultants (world frame) times S_geo."""
     capacity = manip.pose.shape[1]
     n_lattice = 2 * manip.lattice_ncol[c] + 1
     for j in range(ys.shape[0]):
@@ -196,7 +200,7 @@ def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, ste
             if outs.point_class[j, col] != REACHED or outs.equilibrium[j, col]:
                 continue
             x = xs[col]
-            if touches_palm(x, y, hand.w, finger.r):
+            if touches_palm(x, y, hand.w, finger.r) or fingers_touch(fingers, j, col, finger):
                 continue
             i = col - ncol                    # world column: x = i h
             src_l = -i - step - m_lo          # the shared field's columns (gather_fingers)

@@ -170,6 +170,20 @@ def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
 
 
 @njit(cache=True)
+def rests_on_other_finger(mode, t1, t2, finger):
+    """A finger that finger_collision stopped on the other (`stopped_finger`): free short of
+    its fully closed configuration (t1 = pi, t2 = theta2_max), or proximal-only with its distal
+    short of its upper stop; no settled finger looks like that (a settled free finger is fully
+    closed, a settled proximal-only one has its distal on the stop, MODEL 4). Its pose has a
+    finger-finger contact, whose force the model's statics leave open (model-notes D17)."""
+    if mode == FREE:
+        return t1 != math.pi or t2 != finger.theta2_max
+    if mode == PROXIMAL_ONLY:
+        return t2 != finger.theta2_max
+    return False
+
+
+@njit(cache=True)
 def settled_fingers_cross(t1l, t2l, t1r, t2r, finger, w):
     """The test that selects the points to re-run: the fingers cross in their final
     configurations (elsewhere they are taken not to have met on the way, model-notes D14)."""

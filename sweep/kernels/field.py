@@ -33,7 +33,7 @@ from ..model import (
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
-from .collision import resolve_collisions
+from .collision import resolve_collisions, rests_on_other_finger
 from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
                    tip_clearance)
 from .records import EffectBlocks, FingerState
@@ -152,7 +152,10 @@ def fill_infeasible(j, i, fingers, outs, forces):
 
 @njit(cache=True)
 def point_forces(j, i, finger, fingers, forces):
-    """Contact forces of both fingers at a feasible point (per unit tension, world frame)."""
+    """Contact forces of both fingers at a feasible point (per unit tension, world frame).
+    Where finger_collision stopped a finger on the other, neither finger's forces are
+    determined (the finger-finger contact, model-notes D17)."""
+    touching = fingers_touch(fingers, j, i, finger)
     for side in range(2):
         st = finger_statics_at(fingers, side, j, i, finger)
         forces.proximal_normal[side, j, i] = st.proximal_normal
@@ -161,7 +164,16 @@ def point_forces(j, i, finger, fingers, forces):
         # the left finger's frame is the right one's mirror image in x
         forces.resultant_x[side, j, i] = st.resultant_x if side == 1 else -st.resultant_x
         forces.resultant_y[side, j, i] = st.resultant_y
-        forces.determined[side, j, i] = st.determined
+        forces.determined[side, j, i] = st.determined and not touching
+
+
+@njit(cache=True)
+def fingers_touch(fingers, j, i, finger):
+    """finger_collision stopped one of the point's fingers on the other (model-notes D17)."""
+    return (rests_on_other_finger(fingers.mode[0, j, i], fingers.t1[0, j, i],
+                                  fingers.t2[0, j, i], finger)
+            or rests_on_other_finger(fingers.mode[1, j, i], fingers.t1[1, j, i],
+                                     fingers.t2[1, j, i], finger))
 
 
 @njit(cache=True)
