@@ -270,7 +270,7 @@ def best_designs_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -
     from .plot import draw_map_panel
 
     n_r, n_mu = st1.r.size, st1.mu.size
-    fig = Figure(figsize=(8.6 * n_r + 0.5, 3.4 * n_mu + 1.4), dpi=80, layout="constrained")
+    fig = Figure(figsize=(8.6 * n_r + 0.5, 3.4 * n_mu + 1.4), dpi=90, layout="constrained")
     FigureCanvasAgg(fig)
     axes = np.atleast_2d(fig.subplots(n_mu, 2 * n_r, squeeze=False))
     for k, ((ri, mi), row) in enumerate(zip(st1.parts(), rows)):
@@ -285,10 +285,9 @@ def best_designs_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -
                     f"l1={design['l1']:g} l2={design['l2']:g} R={fmt(row[f'R_{tag}'])} "
                     f"w={design['w']:g}\nΛ={fmt(row[f'Lambda_{tag}'])}")
             draw_map_panel(ax, m, title=text, colorbar_label=None, fontsize=7)
-            colour = SCENE_COLOURS[s] if row["same_gripper"] else "#ff0000"
             for spine in ax.spines.values():
-                spine.set_edgecolor(colour)
-                spine.set_linewidth(1.5 if row["same_gripper"] else 3.0)
+                spine.set_edgecolor("#999999" if row["same_gripper"] else "#ff0000")
+                spine.set_linewidth(1.0 if row["same_gripper"] else 3.0)
     n_changed = sum(not row["same_gripper"] for row in rows)
     fig.suptitle(f"Best caging design of each part in two scenes: left of each pair "
                  f"{scene_name(st1)} ({_short(st1)}), right {scene_name(st2)} "
@@ -333,7 +332,7 @@ def caging_tip_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figure
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8, loc="best")
     fig.suptitle("Caging versus tip prehension per design, smallest and largest part at the "
-                 "highest friction: each scene in its colour, the other scene faint behind it; "
+                 "highest friction: each scene in its colour, the other scene faint behind it;\n"
                  f"representative designs (rules in report.md) marked; {NOTE_UNITLESS}",
                  fontsize=11)
     return fig
@@ -361,6 +360,7 @@ def manipulation_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figu
                hatch=hatch, edgecolor="white", label=label)
     ax.set_yscale("log")
     ax.set_ylim(floor, (positive.max() if positive.size else 1.0) * 5)
+    ax.set_xlim(-0.7, len(rows) - 0.3)
     ax.set_xticks(xs, [f"r={row['r']:g}\nμ={row['mu']:g}\n{row['winner_1']} / "
                        f"{row['winner_2']}" for row in rows], fontsize=8)
     ax.set_xlabel("part (radius r, friction μ); the scenario with the larger metric under "
