@@ -572,15 +572,8 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     last, so a complete marker means a complete report)."""
     st = st or open_store(Path(store))
     top_k = resolve_top_k(st, top_k)
-    out_dir = Path(out_dir)
     rep = make_tables(st, top_k)
-    # An incomplete marker first: a killed report is redone by a rerun, not taken as done.
-    write_bytes_atomic(out_dir / MARKER, json.dumps(dict(identity(st, top_k), complete=False),
-                                                    indent=1, sort_keys=True).encode())
-
-    def write(name: str, data: bytes):
-        write_bytes_atomic(out_dir / name, data)
-        rep.files.append(name)
+    write, finish = report_files(Path(out_dir), identity(st, top_k), rep.files)
 
     write("best_caging.csv", csv_bytes(rep.best, BEST_COLUMNS))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
@@ -596,9 +589,27 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     write("best_caging.png", _png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", _png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", markdown(st, rep).encode())
-    marker = dict(identity(st, top_k), complete=True, files=sorted(rep.files))
-    write_bytes_atomic(out_dir / MARKER, json.dumps(marker, indent=1, sort_keys=True).encode())
+    finish()
     return rep
+
+
+def report_files(out_dir: Path, ident: dict, files: list[str]):
+    """A report's files, written one by one and atomically: (write, finish). An incomplete
+    marker is written first (a killed report is redone by a rerun, not taken as done);
+    `write(name, data)` writes a file and lists it in `files`; `finish()` writes the complete
+    marker, last."""
+    def marker(complete: bool) -> bytes:
+        extra = dict(files=sorted(files)) if complete else {}
+        return json.dumps(dict(ident, complete=complete, **extra), indent=1,
+                          sort_keys=True).encode()
+
+    write_bytes_atomic(out_dir / MARKER, marker(False))
+
+    def write(name: str, data: bytes):
+        write_bytes_atomic(out_dir / name, data)
+        files.append(name)
+
+    return write, lambda: write_bytes_atomic(out_dir / MARKER, marker(True))
 
 
 # ---------------------------------------------------------------------------------------------

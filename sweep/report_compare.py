@@ -21,7 +21,6 @@ function, `best_designs` (a refinement of contenders can later change it there).
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,7 +30,6 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from . import __version__
-from .outputs import write_bytes_atomic
 from .report import (
     DESIGN_DIMS,
     MARKER,
@@ -53,6 +51,7 @@ from .report import (
     manipulation_rows,
     md_table,
     open_store,
+    report_files,
     representative_rows,
     resolve_top_k,
     usage_rows,
@@ -470,15 +469,8 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     """Write every file of the two-scene report into `out_dir` (atomically, one by one;
     `report.json` last, so a complete marker means a complete report)."""
     st1, st2, top_k = pair or open_pair(store_1, store_2, top_k)
-    out_dir = Path(out_dir)
     rep = make_tables(st1, st2, top_k)
-    write_bytes_atomic(out_dir / MARKER, json.dumps(
-        dict(comparison_identity(st1, st2, top_k), complete=False), indent=1,
-        sort_keys=True).encode())
-
-    def write(name: str, data: bytes):
-        write_bytes_atomic(out_dir / name, data)
-        rep.files.append(name)
+    write, finish = report_files(Path(out_dir), comparison_identity(st1, st2, top_k), rep.files)
 
     write("best_designs.csv", csv_bytes(rep.best, BEST_COLUMNS))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
@@ -492,8 +484,7 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     write("caging_vs_tip.png", _png(caging_tip_figure(st1, st2, rep)))
     write("best_designs.png", _png(best_designs_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
-    marker = dict(comparison_identity(st1, st2, top_k), complete=True, files=sorted(rep.files))
-    write_bytes_atomic(out_dir / MARKER, json.dumps(marker, indent=1, sort_keys=True).encode())
+    finish()
     return rep
 
 

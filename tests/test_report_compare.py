@@ -6,7 +6,6 @@ sweep.report's selection code.
 """
 from __future__ import annotations
 
-import csv
 import itertools
 from pathlib import Path
 
@@ -14,30 +13,7 @@ import numpy as np
 import pytest
 import xarray as xr
 import yaml
-from click.testing import CliRunner
-
-from sweep.cli import main as cli
-
-DATA = Path(__file__).parent / "data"
-DESIGN = ("l1", "l2", "r1", "r2", "w")
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
-
-
-def invoke(*args):
-    return CliRunner().invoke(cli, [str(a) for a in args])
-
-
-def g(v) -> str:
-    return f"{float(v):.6g}"
-
-
-def key(v: float) -> float:
-    return float(f"{v:.9g}")
-
-
-def read_csv(path: Path) -> list[dict]:
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
+from test_report import DATA, DESIGN, PNG_SIGNATURE, g, invoke, key, read_csv
 
 
 def scene_config(tmp: Path, name: str, **changes) -> Path:

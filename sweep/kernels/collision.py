@@ -26,7 +26,7 @@ from numba import njit
 
 from ..model import FREE, PROXIMAL_ONLY, PROXIMAL_TIP, RANGE_TOL, TWO_PHALANX
 from .part import (TOUCH2, finger_polyline, fingers_cross, link_vectors,
-                   point_segment_distance2, polyline_from_links)
+                   point_segment_distance2, polyline_from_links, sort_small)
 
 MAX_PROGRESS_STEPS = 10_000_000  # defence in depth, as for the reconfiguration path
 
@@ -192,6 +192,12 @@ def settled_fingers_cross(t1l, t2l, t1r, t2r, finger, w):
 
 
 @njit(cache=True)
+def settled_angles(fingers, j, i):
+    """(t1 left, t2 left, t1 right, t2 right) of point (j, i)."""
+    return fingers.t1[0, j, i], fingers.t2[0, j, i], fingers.t1[1, j, i], fingers.t2[1, j, i]
+
+
+@njit(cache=True)
 def stop_fingers_at(fingers, j, i, p, theta2_min):
     """Stop both fingers of point (j, i) at the meeting progress p (in place); True if one
     changed."""
@@ -221,10 +227,7 @@ def resolve_collisions_reference(ys, finger, w, fingers, collision):
         for i in range(fingers.mode.shape[2]):
             if fingers.mode[0, j, i] < 0 or fingers.mode[1, j, i] < 0:  # infeasible
                 continue
-            t1l = fingers.t1[0, j, i]
-            t2l = fingers.t2[0, j, i]
-            t1r = fingers.t1[1, j, i]
-            t2r = fingers.t2[1, j, i]
+            t1l, t2l, t1r, t2r = settled_angles(fingers, j, i)
             if not settled_fingers_cross(t1l, t2l, t1r, t2r, finger, w):
                 continue
             p = meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
@@ -459,13 +462,7 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
     events[3] = t1l + (t2l - th)
     events[4] = t1r + (t2r - th)
     events[5] = p_end
-    for i in range(1, 6):  # insertion sort (np.sort of six costs more than the search)
-        x = events[i]
-        k = i - 1
-        while k >= 0 and events[k] > x:
-            events[k + 1] = events[k]
-            k -= 1
-        events[k + 1] = x
+    sort_small(events, 6)
     n_phase = 0  # phases after a (start, end, motions, vertices at the start), set up in turn
     e = 0
     best = math.inf  # the earliest progress at which a pair comes within RANGE_TOL
@@ -828,10 +825,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
             meet[i] = -1.0
             if fingers.mode[0, j, i] < 0 or fingers.mode[1, j, i] < 0:  # infeasible
                 continue
-            t1l = fingers.t1[0, j, i]
-            t2l = fingers.t2[0, j, i]
-            t1r = fingers.t1[1, j, i]
-            t2r = fingers.t2[1, j, i]
+            t1l, t2l, t1r, t2r = settled_angles(fingers, j, i)
             m = nx - 1 - i
             if m < i and fingers.mode[1, j, m] >= 0 and fingers.mode[0, j, m] >= 0 \
                     and fingers.t1[1, j, m] == t1l and fingers.t2[1, j, m] == t2l \

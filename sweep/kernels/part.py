@@ -75,23 +75,30 @@ def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half
 def origin_in_cone_hull(angles, n):
     """MODEL 7: the origin lies in the convex hull of unit edge directions iff no angular gap > pi.
 
-    Sorts angles[:n] in place (insertion sort: n <= 10).
+    Sorts angles[:n] in place (n <= 10).
     """
     if n == 0:
         return False
     for i in range(n):
         angles[i] = angles[i] % (2.0 * math.pi)
-    for i in range(1, n):
-        a = angles[i]
-        j = i - 1
-        while j >= 0 and angles[j] > a:
-            angles[j + 1] = angles[j]
-            j -= 1
-        angles[j + 1] = a
+    sort_small(angles, n)
     largest_gap = angles[0] + 2.0 * math.pi - angles[n - 1]
     for i in range(1, n):
         largest_gap = max(largest_gap, angles[i] - angles[i - 1])
     return largest_gap <= math.pi + GAP_TOL
+
+
+@njit(cache=True)
+def sort_small(values, n):
+    """Sort values[:n] in place, ascending (insertion sort: a handful of values, where np.sort
+    costs more than the sorting)."""
+    for i in range(1, n):
+        a = values[i]
+        j = i - 1
+        while j >= 0 and values[j] > a:
+            values[j + 1] = values[j]
+            j -= 1
+        values[j + 1] = a
 
 
 @njit(cache=True)
