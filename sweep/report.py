@@ -489,21 +489,27 @@ def manipulation_figure(st: StoreData, rows: list[dict], best: dict, part_row: i
     return fig
 
 
-def usage_figure(rows: list[dict]) -> Figure:
-    vals = np.array([[row[p] for p in PARAMETERS] for row in rows])
-    fig = Figure(figsize=(7.5, 0.42 * len(rows) + 2.2), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.subplots()
+def draw_usage(ax, vals: np.ndarray, none: str):
+    """Parameter usage (parts x PARAMETERS, NaN: no positive pose, written `none`) as a
+    heatmap with its values printed; returns the image."""
     ax.set_facecolor("#dddddd")
     im = ax.imshow(np.ma.masked_invalid(vals), cmap="viridis", vmin=0.0, vmax=1.0,
                    aspect="auto")
     for i in range(vals.shape[0]):
         for j in range(vals.shape[1]):
             v = vals[i, j]
-            ax.text(j, i, "no positive pose" if np.isnan(v) else f"{v:.2f}", ha="center",
-                    va="center", fontsize=8, color="black" if np.isnan(v) or v > 0.6 else
-                    "white")
+            ax.text(j, i, none if np.isnan(v) else f"{v:.2f}", ha="center", va="center",
+                    fontsize=8, color="black" if np.isnan(v) or v > 0.6 else "white")
     ax.set_xticks(range(len(PARAMETERS)), PARAMETERS)
+    return im
+
+
+def usage_figure(rows: list[dict]) -> Figure:
+    vals = np.array([[row[p] for p in PARAMETERS] for row in rows])
+    fig = Figure(figsize=(7.5, 0.42 * len(rows) + 2.2), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    im = draw_usage(ax, vals, "no positive pose")
     ax.set_yticks(range(len(rows)), [f"r={row['r']:g}, μ={row['mu']:g}" for row in rows],
                   fontsize=8)
     ax.set_xlabel("design parameter")

@@ -46,6 +46,7 @@ from .report import (
     candidate_rows,
     caging_tip_parts,
     csv_bytes,
+    draw_usage,
     fmt,
     identity,
     manipulation_rows,
@@ -418,16 +419,7 @@ def usage_figure(st1: StoreData, st2: StoreData, rows: list[dict]) -> Figure:
     im = None
     for ax, tag, st in zip(axs, ("1", "2"), (st1, st2)):
         vals = np.array([[row[f"{p}_{tag}"] for p in PARAMETERS] for row in rows])
-        ax.set_facecolor("#dddddd")
-        im = ax.imshow(np.ma.masked_invalid(vals), cmap="viridis", vmin=0.0, vmax=1.0,
-                       aspect="auto")
-        for i in range(vals.shape[0]):
-            for j in range(vals.shape[1]):
-                v = vals[i, j]
-                ax.text(j, i, "none" if np.isnan(v) else f"{v:.2f}", ha="center",
-                        va="center", fontsize=8,
-                        color="black" if np.isnan(v) or v > 0.6 else "white")
-        ax.set_xticks(range(len(PARAMETERS)), PARAMETERS)
+        im = draw_usage(ax, vals, "none")
         ax.set_title(f"{scene_name(st)} ({_short(st)})", fontsize=10)
         ax.set_xlabel("design parameter")
     axs[0].set_yticks(range(len(rows)), [f"r={row['r']:g}, μ={row['mu']:g}" for row in rows],
