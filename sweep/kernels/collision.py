@@ -10,14 +10,19 @@ bits faster (`resolve_collisions`, model-notes D14 "How a map finds the meeting"
 1. Until the first finger's proximal contact (p <= a = min t1) both fingers sweep rigidly and
    are mirror images, so the symmetric closing's meeting is one search per map
    (`symmetric_meeting`); every point whose first crossing node falls in it takes its answer.
-2. After a, each finger moves by a rotation about a fixed joint (rigid sweep about J, distal
-   closing about B) or rests, so the first contact of a vertex with a segment of the other
-   finger is the first root of f(theta) = K + A1 sin(w1 theta + b1) + A2 sin(w2 theta + b2),
-   found by safe steps (`vertex_segment_contact`). That contact locates the first crossing
-   node and the bisection's switch point; the reference's bisection is then replayed with its
-   own predicate (`paths_cross_at`) evaluated only where the replay cannot be sure, and both
-   ends of the final bracket are checked with it. A point where any check fails, or the
-   contact is grazing, is searched by the reference from node a on.
+2. After a, each finger rests or turns about a fixed joint (rigid sweep about J, distal
+   closing about B), so a vertex of one finger first meets a segment of the other where a
+   circle crosses the segment (one finger at rest: closed form, `one_term_root`) or at the
+   first root of a sum of sines of frequencies 1 and 2 (both turning: safe steps,
+   `two_term_root`). The earliest contact (`first_contact`) locates the first crossing node
+   and the bisection's switch point; the reference's bisection is then replayed
+   (`predicted_meeting`) with its own predicate evaluated only where the replay cannot be
+   sure, and the final bracket and the node are checked with it. A point where a check fails,
+   or the contact is grazing, is searched by the reference from the node after a.
+3. Answers are reused where the inputs are the same numbers: the mirror point, the left
+   neighbour, and in the sweep a per-thread memo across the cells of one geometry group
+   (records.SettledFingers). `collide` does one point anywhere, with the symmetric sweep as
+   the first phase of its contact search.
 """
 import math
 
