@@ -14,11 +14,14 @@ $(STAMP): pyproject.toml
 
 install: $(STAMP)
 
-# The main job: the paper's sweep with the manipulation metric (86,400 maps; resumes if killed,
-# a no-op when complete), then its report (figures, tables, report.md; a no-op when up to date).
+# The main job: the paper's sweep with the manipulation metric in two scenes, as the paper
+# models the fingers (they may cross) and as a gripper's work (finger_collision), 86,400 maps
+# each (resumes if killed, a no-op when complete), then one report that puts the two side by
+# side (figures, tables, report.md; a no-op when up to date).
 run: $(STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
-	$(VENV)/bin/sweep report results/paper.h5 --out results/
+	$(VENV)/bin/sweep run configs/paper-collision.yaml --out results/paper-collision.h5
+	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
 
 # One energy map of the issue's reference design, with its plot.
 map: $(STAMP)

@@ -6,6 +6,7 @@ relative to its base, so all widths and both fingers are shifts/mirrors of one f
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
@@ -61,7 +62,7 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
                                command.f_left, command.f_right, th2min, th2max, solver, blocks,
-                               out, None)
+                               out, None, numba.get_num_threads())
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
@@ -166,7 +167,8 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
         summarize_cells_shared(np.ascontiguousarray(cells[rows]), widths,
                                np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
                                command.f_left, command.f_right, limits.theta2_min,
-                               limits.theta2_max, solver, blocks, out, manip)
+                               limits.theta2_max, solver, blocks, out, manip,
+                               numba.get_num_threads())
         return out, manip
 
     out, manip = run(np.arange(n), capacity)

@@ -510,8 +510,8 @@ def _n_items(b) -> str:
 
 
 @click.command("report", cls=SweepCommand,
-               short_help="The paper's experiments from a results store: figures, tables.")
-@click.argument("store", type=FILE)
+               short_help="The paper's experiments from one results store, or two scenes.")
+@click.argument("stores", type=FILE, nargs=-1, required=True)
 @click.option("--out", type=PATH, required=True, help="Directory for the report's files.")
 @click.option("--top-k", type=int, default=None,
               help="Scenario A candidates per part [default: the store's "
@@ -519,31 +519,48 @@ def _n_items(b) -> str:
 @click.option("--overwrite", is_flag=True,
               help="Replace a report in DIR made from another store.")
 @WAIT
-def report(store, out, top_k, overwrite, wait):
+def report(stores, out, top_k, overwrite, wait):
     """Turn a results store into the paper's four experiments: best_caging.png,
     caging_vs_tip.png, manipulation.png, parameter_usage.png, their tables as CSV, and
     report.md (tables, rules, settings, run time, a reading).
 
     \b
     sweep report results/paper.h5 --out results/
+    sweep report results/paper.h5 results/paper-collision.h5 --out results/
 
-    Rerunning on the same store with the same settings is a no-op; a stale report of the same
-    store is redone; a report of another store in DIR needs --overwrite. A store without the
-    manipulation metric (config option `outputs: {manipulation: true}`) gets the caging parts
-    only, with a note in report.md.
+    With two stores of the same designs, parts and grid (two scenes: say, as the paper models
+    the fingers and with finger_collision), one report puts the scenes side by side
+    (best_designs.png, caging_vs_tip.png, manipulation.png, parameter_usage.png, report.md).
+
+    Rerunning on the same store(s) with the same settings is a no-op; a stale report of the
+    same store(s) is redone; a report of another store in DIR needs --overwrite. A store
+    without the manipulation metric (config option `outputs: {manipulation: true}`) gets the
+    caging parts only, with a note in report.md.
     """
     import json
 
     from .outputs import OutputLock, make_parent
     from .report import ALL_FILES, MARKER, build_report, identity, open_store, resolve_top_k
+    from .report_compare import FILES, build_comparison, comparison_identity, open_pair
 
+    if len(stores) > 2:
+        raise UserError(f"give one store, or two to compare (got {len(stores)})")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out: {out} is a file; it names the report's directory")
-    st = open_store(store)
-    top_k = resolve_top_k(st, top_k)
+    if len(stores) == 1:
+        st = open_store(stores[0])
+        top_k = resolve_top_k(st, top_k)
+        wanted = identity(st, top_k)
+        names = ALL_FILES
+        what = f"the report of {stores[0]}"
+    else:
+        pair = open_pair(stores[0], stores[1], top_k)
+        top_k = pair[2]
+        wanted = comparison_identity(*pair)
+        names = tuple(sorted(set(FILES) | set(ALL_FILES)))
+        what = f"the report comparing {stores[0]} and {stores[1]}"
     make_parent(out / MARKER)
     with OutputLock(out / MARKER, what=f"the report in {out}").acquire(wait=wait):
-        wanted = identity(st, top_k)
         try:
             found = json.loads((out / MARKER).read_text())
         except (OSError, ValueError):
@@ -551,11 +568,11 @@ def report(store, out, top_k, overwrite, wait):
         same = found is not None and all(found.get(k) == v for k, v in wanted.items())
         if same and not overwrite and found.get("complete") and all(
                 (out / name).exists() for name in found.get("files", [])):
-            click.echo(f"{out}: report of {store} is already complete; nothing to do")
+            click.echo(f"{out}: {what} is already complete; nothing to do")
             return
-        present = [name for name in ALL_FILES if (out / name).exists()]
-        # Like `sweep run`: the report of this store (same file, same config) is redone when
-        # stale (store rewritten, other --top-k); a report of another store needs --overwrite.
+        present = [name for name in names if (out / name).exists()]
+        # Like `sweep run`: the report of these stores (same files, same configs) is redone
+        # when stale (store rewritten, other --top-k); a report of others needs --overwrite.
         ours = found is not None and all(found.get(k) == wanted[k]
                                          for k in ("store", "config_hash"))
         if present and found is not None and not ours and not overwrite:
@@ -564,9 +581,12 @@ def report(store, out, top_k, overwrite, wait):
         if present and found is None and not overwrite:
             raise UserError(f"--out: {out} already holds {present[0]}; pass --overwrite to "
                             "replace it")
-        build_report(store, out, top_k,
-                     log=lambda msg: click.echo(f"report: {msg}", err=True), st=st)
-    click.echo(f"wrote the report of {store} to {out}/ (report.md and its figures and tables)")
+        log = lambda msg: click.echo(f"report: {msg}", err=True)  # noqa: E731
+        if len(stores) == 1:
+            build_report(stores[0], out, top_k, log=log, st=st)
+        else:
+            build_comparison(stores[0], stores[1], out, top_k, log=log, pair=pair)
+    click.echo(f"wrote {what} to {out}/ (report.md and its figures and tables)")
 
 
 # ---------------------------------------------------------------------------------------------

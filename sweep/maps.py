@@ -25,6 +25,7 @@ from .kernels.records import (
     Hand,
     OutcomeArrays,
     SolverSettings,
+    finger_blocks,
     new_finger_arrays,
     new_force_arrays,
     new_outcome_arrays,
@@ -279,7 +280,7 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
     for side, dxs, tension in ((0, dx_left, command.f_left), (1, dx_right, command.f_right)):
         _, _, side_blocks = kernel_records(design, part, limits, accuracy, effects, tension)
-        finger_field(dxs, g.y, finger, solver, side_blocks, fingers, side)
+        finger_field(dxs, g.y, finger, solver, finger_blocks(side_blocks), fingers, side)
     solved = time.perf_counter()
 
     outs = new_outcome_arrays(ny, nx)

@@ -489,21 +489,27 @@ def manipulation_figure(st: StoreData, rows: list[dict], best: dict, part_row: i
     return fig
 
 
-def usage_figure(rows: list[dict]) -> Figure:
-    vals = np.array([[row[p] for p in PARAMETERS] for row in rows])
-    fig = Figure(figsize=(7.5, 0.42 * len(rows) + 2.2), dpi=110, layout="constrained")
-    FigureCanvasAgg(fig)
-    ax = fig.subplots()
+def draw_usage(ax, vals: np.ndarray, none: str):
+    """Parameter usage (parts x PARAMETERS, NaN: no positive pose, written `none`) as a
+    heatmap with its values printed; returns the image."""
     ax.set_facecolor("#dddddd")
     im = ax.imshow(np.ma.masked_invalid(vals), cmap="viridis", vmin=0.0, vmax=1.0,
                    aspect="auto")
     for i in range(vals.shape[0]):
         for j in range(vals.shape[1]):
             v = vals[i, j]
-            ax.text(j, i, "no positive pose" if np.isnan(v) else f"{v:.2f}", ha="center",
-                    va="center", fontsize=8, color="black" if np.isnan(v) or v > 0.6 else
-                    "white")
+            ax.text(j, i, none if np.isnan(v) else f"{v:.2f}", ha="center", va="center",
+                    fontsize=8, color="black" if np.isnan(v) or v > 0.6 else "white")
     ax.set_xticks(range(len(PARAMETERS)), PARAMETERS)
+    return im
+
+
+def usage_figure(rows: list[dict]) -> Figure:
+    vals = np.array([[row[p] for p in PARAMETERS] for row in rows])
+    fig = Figure(figsize=(7.5, 0.42 * len(rows) + 2.2), dpi=110, layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    im = draw_usage(ax, vals, "no positive pose")
     ax.set_yticks(range(len(rows)), [f"r={row['r']:g}, μ={row['mu']:g}" for row in rows],
                   fontsize=8)
     ax.set_xlabel("design parameter")
@@ -572,15 +578,8 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     last, so a complete marker means a complete report)."""
     st = st or open_store(Path(store))
     top_k = resolve_top_k(st, top_k)
-    out_dir = Path(out_dir)
     rep = make_tables(st, top_k)
-    # An incomplete marker first: a killed report is redone by a rerun, not taken as done.
-    write_bytes_atomic(out_dir / MARKER, json.dumps(dict(identity(st, top_k), complete=False),
-                                                    indent=1, sort_keys=True).encode())
-
-    def write(name: str, data: bytes):
-        write_bytes_atomic(out_dir / name, data)
-        rep.files.append(name)
+    write, finish = report_files(Path(out_dir), identity(st, top_k), rep.files)
 
     write("best_caging.csv", csv_bytes(rep.best, BEST_COLUMNS))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
@@ -596,9 +595,27 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     write("best_caging.png", _png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", _png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", markdown(st, rep).encode())
-    marker = dict(identity(st, top_k), complete=True, files=sorted(rep.files))
-    write_bytes_atomic(out_dir / MARKER, json.dumps(marker, indent=1, sort_keys=True).encode())
+    finish()
     return rep
+
+
+def report_files(out_dir: Path, ident: dict, files: list[str]):
+    """A report's files, written one by one and atomically: (write, finish). An incomplete
+    marker is written first (a killed report is redone by a rerun, not taken as done);
+    `write(name, data)` writes a file and lists it in `files`; `finish()` writes the complete
+    marker, last."""
+    def marker(complete: bool) -> bytes:
+        extra = dict(files=sorted(files)) if complete else {}
+        return json.dumps(dict(ident, complete=complete, **extra), indent=1,
+                          sort_keys=True).encode()
+
+    write_bytes_atomic(out_dir / MARKER, marker(False))
+
+    def write(name: str, data: bytes):
+        write_bytes_atomic(out_dir / name, data)
+        files.append(name)
+
+    return write, lambda: write_bytes_atomic(out_dir / MARKER, marker(True))
 
 
 # ---------------------------------------------------------------------------------------------

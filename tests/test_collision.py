@@ -8,8 +8,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from sweep.kernels.part import meeting_progress, resolve_collisions, stopped_finger
+from sweep.kernels.collision import meeting_progress, resolve_collisions, stopped_finger
 from sweep.kernels.records import FingerCollision, new_finger_arrays
 from sweep.maps import compute_map, kernel_records
 from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
@@ -168,7 +170,7 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
     unit of progress); the answer must be that of testing every node. The every-node search is
     written here from paths_cross_at, on random closing paths of random designs and widths
     (w = 0 included: shared base)."""
-    from sweep.kernels.part import paths_cross_at
+    from sweep.kernels.collision import paths_cross_at
 
     def every_node(t1l, t2l, t1r, t2r, finger, w):
         th = finger.theta2_min
@@ -204,3 +206,217 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
         assert meeting_progress(*args, COLLISION) == expected, args
         n_met += expected >= 0.0
     assert n_met > 50  # the sample has meetings to find, not only misses
+
+
+# --- the map's way (resolve_collisions) against the reference search, bit for bit -----------
+# resolve_collisions finds the meeting from the symmetric closing and the first contact in
+# closed form, and replays the reference's bisection (kernels/collision.py); the reference,
+# resolve_collisions_reference, steps and bisects at every crossed point. Same bits asked.
+def _settled_fields(design, part, h):
+    """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
+    from sweep.kernels.cells import cell_map
+    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
+    _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+    _, ys, fingers, _, _, _ = cell_map(finger, solver, blocks, design.w,
+                                       palm_half_width_steps(design.w, h), i1, j1 + 1, h, 1.0,
+                                       1.0, True, False)
+    return finger, ys, fingers
+
+
+def _copy(fingers):
+    return type(fingers)(*(a.copy() for a in fingers))
+
+
+def _assert_same_fingers(a, b):
+    for name, x, y in zip(a._fields, a, b):
+        assert np.array_equal(x, y, equal_nan=True), name
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_map_way_gives_the_reference_search_bits(seed):
+    """Random designs and parts of the paper table (w = l1 and w = 0 included: a distal joint
+    lands on the other finger's base at t1 = pi, the bases coincide), whole maps at h = 0.1."""
+    from sweep.kernels.collision import resolve_collisions_reference
+    rng = np.random.default_rng(seed)
+    n_met = 0
+    for k in range(3):
+        l1 = 0.4 + 0.2 * int(rng.integers(0, 9))
+        w = [0.0, round(l1, 1) if l1 <= 2.0 else 2.0, 0.4 * int(rng.integers(0, 6))][k]
+        design = Design(l1, 0.4 + 0.4 * int(rng.integers(0, 4)),
+                        0.04 + 0.04 * int(rng.integers(0, 5)),
+                        0.02 + 0.04 * int(rng.integers(0, 5)), w)
+        part = Part(0.4 + 0.4 * int(rng.integers(0, 4)), 0.1 + 0.3 * int(rng.integers(0, 4)))
+        finger, ys, settled = _settled_fields(design, part, 0.1)
+        fast, reference = _copy(settled), _copy(settled)
+        n_fast = resolve_collisions(ys, finger, w, fast, COLLISION)
+        n_reference = resolve_collisions_reference(ys, finger, w, reference, COLLISION)
+        assert n_fast == n_reference
+        _assert_same_fingers(fast, reference)
+        n_met += n_fast
+    assert n_met > 100  # the sample has meetings to find
+
+
+@given(st.floats(0.4, 2.0), st.floats(0.4, 1.6), st.sampled_from([0.0, 0.4, 0.8, 1.2, 2.0]),
+       st.integers(0, 2**31))
+def test_map_way_gives_the_reference_search_bits_on_any_fingers(l1, l2, w, seed):
+    """Settled angles drawn at random (not only those a part makes), each point's fingers
+    anywhere in their ranges, modes mixed: the meeting and the stopped fingers are the
+    reference's bits."""
+    from sweep.kernels.collision import resolve_collisions_reference
+    rng = np.random.default_rng(seed)
+    finger = finger_record(l1, l2)
+    n = 60
+    fingers = new_finger_arrays(2, 1, n)
+    fingers.mode[:] = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=(2, 1, n))
+    fingers.t1[:] = rng.uniform(0.0, math.pi, size=(2, 1, n))
+    fingers.t2[:] = rng.uniform(TH2MIN, TH2MAX, size=(2, 1, n))
+    fingers.t1[:, :, :10] = math.pi  # free fingers: the paths of the unreached region
+    fingers.t2[:, :, :10] = TH2MAX
+    fingers.t2[:, :, 10:20] = TH2MIN  # distal on its stop: a strike in the rigid sweep
+    fingers.k1[:] = rng.uniform(0.0, l1, size=(2, 1, n))
+    fingers.k2[:] = 0.0
+    fingers.tip_overlap[:] = False
+    fast, reference = _copy(fingers), _copy(fingers)
+    ys = np.array([1.0])
+    assert resolve_collisions(ys, finger, w, fast, COLLISION) == \
+        resolve_collisions_reference(ys, finger, w, reference, COLLISION)
+    _assert_same_fingers(fast, reference)
+
+
+def test_sweep_way_gives_the_reference_search_summaries():
+    """The sweep (shared fields, link vectors, the per-thread memo across the cells of one
+    geometry group) against maps whose fingers the reference resolves: every summary field,
+    bit for bit, n_collision_changed included."""
+    from sweep.batch import summarize_cells
+    from sweep.kernels import cells as cell_kernels
+    from sweep.kernels.collision import resolve_collisions_reference
+    from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
+    from sweep.kernels.records import NO_EFFECTS, Hand, new_outcome_arrays
+    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    from sweep.model import Command
+
+    h = 0.1
+    widths = np.array([0.0, 0.4, 1.2, 2.0])
+    rng = np.random.default_rng(5)
+    # one geometry group (l1, l2, r) and a cell of another: the memo is reused and cleared
+    cells = [(2.0, 1.6, r1, r2, 0.4, mu) for r1, r2, mu in
+             zip(rng.choice([0.04, 0.12, 0.2], 5), rng.choice([0.02, 0.1, 0.18], 5),
+                 rng.choice([0.1, 0.4, 1.0], 5))] + [(1.2, 0.8, 0.08, 0.1, 0.8, 0.4)]
+    cells = np.array(cells)
+    # grid8: the map pipeline below runs without the effect (the reference resolved the
+    # collisions), so slides off the grid, which would need it, are kept out
+    grid8 = Accuracy(trajectory="grid8")
+    out = summarize_cells(cells, widths, Command(), h, Limits(), grid8,
+                          Effects(finger_collision=True))
+    for c, cell in enumerate(cells):
+        for k, w in enumerate(widths):
+            design, part = Design(*cell[:4], w), Part(*cell[4:])
+            finger, solver, _ = kernel_records(design, part, Limits(), grid8, Effects())
+            _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+            step, ny = palm_half_width_steps(w, h), j1 + 1
+            shared, m_lo, ys = cell_kernels.shared_finger_field(
+                finger, solver, NO_EFFECTS, np.array([step]), np.array([i1]), ny, h)
+            xs, fingers = cell_kernels.gather_fingers(shared, m_lo, step, i1, ny, h)
+            n_changed = resolve_collisions_reference(ys, finger, w, fingers, COLLISION)
+            outs = new_outcome_arrays(ny, xs.size)
+            summary = np.empty(N_SUMMARY)
+            map_from_fingers(xs, ys, finger, solver, Hand(w, 1.0, 1.0, h), NO_EFFECTS, fingers,
+                             outs, None, np.empty(xs.size * ny, dtype=np.int64), summary, False)
+            summary[S_COLLISION_CHANGED] = n_changed
+            assert np.array_equal(out[c, k], summary, equal_nan=True), (cell, w)
+
+
+@given(st.integers(1, 600), st.floats(0.0, 1.0), st.sampled_from([0.01, 0.003, 0.05]),
+       st.sampled_from([1e-12, 1e-10, 1e-15]))
+def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, step, tol):
+    """bisect_by_comparison runs the reference's bisection on integer mantissas where both
+    ends share a binade; the floating-point steps, written here, must give the same bits."""
+    from sweep.kernels.collision import REPLAY_WINDOW, bisect_by_comparison
+    lo, hi = (n - 1) * step, n * step
+    tau = lo + where * (hi - lo)
+    expected = (lo, hi, False)
+    a, b = lo, hi
+    for _ in range(200):
+        if b - a <= tol:
+            expected = (a, b, False)
+            break
+        mid = 0.5 * (a + b)
+        if abs(mid - tau) <= REPLAY_WINDOW:
+            expected = (a, b, True)
+            break
+        if mid > tau:
+            b = mid
+        else:
+            a = mid
+    assert bisect_by_comparison(lo, hi, tau, tol) == expected
+
+
+@given(st.floats(0.4, 2.0), st.floats(0.4, 1.6), st.sampled_from([0.0, 0.4, 0.8, 1.2, 2.0]),
+       st.integers(0, 2**31))
+def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
+    """collide (one part position, no map: the trajectories' off-grid points) finds the
+    reference's meeting and stops the fingers as resolve_collisions_reference would."""
+    from sweep.kernels.collision import collide, settled_fingers_cross
+    rng = np.random.default_rng(seed)
+    finger = finger_record(l1, l2)
+    for _ in range(20):
+        t1 = [math.pi if rng.random() < 0.2 else rng.uniform(0.0, math.pi) for _ in range(2)]
+        t2 = [TH2MIN if rng.random() < 0.3 else rng.uniform(TH2MIN, TH2MAX) for _ in range(2)]
+        modes = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=2)
+        k1 = rng.uniform(0.0, l1, size=2)
+        changed, left, right = collide(finger, w, COLLISION, modes[0], t1[0], t2[0], k1[0], 0.0,
+                                       modes[1], t1[1], t2[1], k1[1], 0.0)
+        p = -1.0
+        if settled_fingers_cross(t1[0], t2[0], t1[1], t2[1], finger, w):
+            p = meeting_progress(t1[0], t2[0], t1[1], t2[1], finger, w, COLLISION)
+        expected = [stopped_finger(p, modes[s], t1[s], t2[s], k1[s], 0.0, TH2MIN)
+                    if p >= 0.0 else (False, modes[s], t1[s], t2[s], k1[s], 0.0)
+                    for s in range(2)]
+        assert changed == (expected[0][0] or expected[1][0])
+        assert tuple(left) == tuple(expected[0][1:]) and tuple(right) == tuple(expected[1][1:])
+
+
+# --- forces and the manipulation metric with finger_collision (model-notes D17) --------------
+def test_forces_are_undetermined_exactly_where_a_finger_rests_on_the_other():
+    """A finger stopped on the other touches it: that contact's force is not in the model's
+    statics, so neither finger's forces are determined there; everywhere else the fingers
+    are the settled ones and so are their forces (compared with the base scene's)."""
+    design, part = Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4)
+    base = compute_map(design, part, grid=Grid(h=0.1), forces=True)
+    m = compute_map(design, part, grid=Grid(h=0.1), forces=True,
+                    effects=Effects(finger_collision=True))
+    changed = ((m.fields["theta1"] != base.fields["theta1"])
+               | (m.fields["theta2"] != base.fields["theta2"])).any(axis=0)
+    changed &= base.fields["point_class"] != 0
+    assert changed.sum() > 100
+    determined = m.fields["forces_determined"]
+    assert not determined[:, changed].any()
+    for name in ("resultant_force_x", "resultant_force_y", "forces_determined"):
+        assert np.array_equal(m.fields[name][:, ~changed], base.fields[name][:, ~changed],
+                              equal_nan=True), name
+
+
+def test_manipulation_with_collision_is_the_base_scene_without_crossed_fingers():
+    """With finger_collision the counted poses are the base scene's whose fingers do not
+    cross: where they would, the effect stops a finger on the other and the pose is dropped
+    (D17); nothing else changes. So per part, Scenario B's reduction (every pose's kept
+    forces) under the effect is the base scene's 'uncrossed' one, bit for bit, and nothing
+    crossed is left."""
+    from sweep.batch import manipulation_cells, part_lattice_columns
+
+    widths = np.array([0.0, 0.4, 0.8])
+    cells = np.array([(2.0, 1.6, r1, r2, 0.4, 0.4) for r1, r2 in
+                      ((0.2, 0.14), (0.12, 0.06), (0.08, 0.1))] + [(1.2, 0.8, 0.16, 0.1, 0.4, 0.4)])
+    n_col = part_lattice_columns(widths.max(), 2.0, 1.6, 0.4, 0.1)
+    args = (cells, widths, 0.1, Limits(), Accuracy())
+    extra = (np.arange(len(cells)), np.zeros((len(cells), 2), dtype=np.int64),
+             np.full(len(cells), n_col))
+    _, base = manipulation_cells(*args, Effects(), *extra)
+    _, coll = manipulation_cells(*args, Effects(finger_collision=True), *extra)
+    b_all, b_uncrossed = base.parts[(0, 0)]["all"], base.parts[(0, 0)]["uncrossed"]
+    c_all, c_uncrossed = coll.parts[(0, 0)]["all"], coll.parts[(0, 0)]["uncrossed"]
+    assert b_all.rows.shape[0] > b_uncrossed.rows.shape[0] > 100  # crossed poses counted
+    for c in (c_all, c_uncrossed):
+        for name, x in b_uncrossed.to_arrays().items():
+            assert np.array_equal(c.to_arrays()[name], x), name

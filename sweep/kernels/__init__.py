@@ -5,6 +5,7 @@ statics   joint torques and stick-slip tests (MODEL 5.1-5.3), vertex contacts (t
 path      the paths of a finger that cannot hold: edge (MODEL 5.3) and tip (tip_contact)
 finger    one finger: closing sequence, stick-slip, energy, forces (MODEL 4-6)
 part      part equilibrium, containment, opening (MODEL 7, 8)
+collision finger_collision: where the two closing fingers first meet (MODEL 9, model-notes D14)
 records   the parameter and result records every kernel takes and returns
 field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
 cells     many maps at once: summaries of cells x palm widths from shared finger fields
@@ -43,6 +44,6 @@ def _cache_root() -> Path:
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
 try:
-    from . import cells, field, finger, geometry, hull, part, records  # noqa: E402,F401
+    from . import cells, collision, field, finger, geometry, hull, part, records  # noqa: E402,F401
 finally:
     numba.config.CACHE_DIR = _user_cache_dir

@@ -7,11 +7,13 @@ finger offset -i - s (model-notes D1). The offsets are the same floating-point n
 direct computation uses, so the maps are bitwise identical to `compute_map`'s. Each map then goes
 through the one map pipeline, `field.map_from_fingers`.
 """
+import numba
 import numpy as np
 from numba import njit, prange
 
 from ..model import REACHED
-from .field import N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, map_from_fingers
+from .field import (N_SUMMARY, cage_score, finger_field_serial, finger_statics_at, fingers_touch,
+                    map_from_fingers)
 from .part import (fingers_cross, link_vectors, part_contained, polyline_from_links,
                    tip_clearance, touches_palm)
 from .hull import convex_hull, inscribed_radius
@@ -19,6 +21,8 @@ from .records import (
     EffectBlocks,
     FingerModel,
     Hand,
+    SettledFingers,
+    finger_blocks,
     new_finger_arrays,
     new_force_arrays,
     new_outcome_arrays,
@@ -47,7 +51,7 @@ def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
     for j in range(ny):
         ys[j] = finger.r + j * h
     shared = new_finger_arrays(1, ny, nm)
-    finger_field_serial(dxs, ys, finger, solver, effects, shared, 0)
+    finger_field_serial(dxs, ys, finger, solver, finger_blocks(effects), shared, 0)
     return shared, m_lo, ys
 
 
@@ -90,13 +94,16 @@ def gather_row(src, dst, side, m_lo, step, ncol):
 
 @njit(cache=True)
 def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, manip,
-                   c):
+                   c, memo, memo_key, memo_next):
     """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
     i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
     ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
-    receives the cell's manipulation metric data (MODEL 10).
+    receives the cell's manipulation metric data (MODEL 10). With finger_collision, `memo`
+    (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it) are this thread's memo
+    of meetings (records.SettledFingers), filled when `memo_next` (the next cell has the same
+    links), cleared when the links change.
     """
     shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
     if manip is not None:
@@ -109,28 +116,43 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
         a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
         manip.n_entries[c] = 0
         links, statics = shared_finger_links_and_statics(shared, finger)
+    elif effects.finger_collision is not None:
+        links = shared_finger_links(shared, finger)
+    memo_read = False
+    if effects.finger_collision is not None:
+        memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
+        if memo_next and not memo_read:
+            memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+            memo_key[0] = finger.l1
+            memo_key[1] = finger.l2
     for k in range(ws.shape[0]):
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
         hand = Hand(ws[k], f_left, f_right, h)
-        map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
-                         out[k], False)  # summaries only
+        if effects.finger_collision is None:
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
+                             out[k], False)  # summaries only
+        else:  # the settled fingers' links, as gather_fingers reads the shared field
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
+                             out[k], False, True, True,
+                             SettledFingers(links, ncols[k] - steps[k] - m_lo, -1,
+                                            -ncols[k] - steps[k] - m_lo, 1, memo[k],
+                                            memo_read, memo_next))
         if manip is not None:
-            collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, steps[k],
-                                   ncols[k], ncol_max, k, manip, c, a_count, a_fx, a_fy)
+            collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
+                                   steps[k], ncols[k], ncol_max, k, manip, c, a_count, a_fx,
+                                   a_fy)
     if manip is not None:
         manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
 
 
 @njit(cache=True)
-def shared_finger_links_and_statics(shared, finger):
-    """Per point of a cell's shared finger field, what every width's map reads from it for the
-    manipulation metric: the link vectors l1 (cos t1, sin t1) and l2 (cos phi, sin phi) in the
-    finger's frame, and the finger's statics per unit tension (determined, resultant x, y)."""
+def shared_finger_links(shared, finger):
+    """Per point of a cell's shared finger field, the link vectors l1 (cos t1, sin t1) and
+    l2 (cos phi, sin phi) in the finger's frame: (4, y, offset)."""
     ny, nm = shared.mode.shape[1], shared.mode.shape[2]
     links = np.empty((4, ny, nm))
-    statics = np.empty((3, ny, nm))
     for j in range(ny):
         for m in range(nm):
             # what finger_polyline forms, so world coordinates match it bit for bit
@@ -140,6 +162,19 @@ def shared_finger_links_and_statics(shared, finger):
             links[1, j, m] = l1s
             links[2, j, m] = l2c
             links[3, j, m] = l2s
+    return links
+
+
+@njit(cache=True)
+def shared_finger_links_and_statics(shared, finger):
+    """Per point of a cell's shared finger field, what every width's map reads from it for the
+    manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
+    unit tension (determined, resultant x, y)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = shared_finger_links(shared, finger)
+    statics = np.empty((3, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
             st = finger_statics_at(shared, 0, j, m, finger)
             statics[0, j, m] = 1.0 if st.determined else 0.0
             statics[1, j, m] = st.resultant_x
@@ -148,13 +183,15 @@ def shared_finger_links_and_statics(shared, finger):
 
 
 @njit(cache=True)
-def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, step, ncol,
+def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
                            ncol_max, k, manip, c, a_count, a_fx, a_fy):
     """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
-    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9).
-    Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces (each command
-    F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose buffers. Forces are
-    the fingers' per-unit-tension resultants (world frame) times S_geo."""
+    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9; not
+    where finger_collision stopped a finger on the other, D17: `fingers` are the map's, after
+    the effect). Elsewhere the fingers are the shared field's, whose links and statics are
+    precomputed. Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces
+    (each command F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose
+    buffers. Forces are the fingers' per-unit-tension resultants (world frame) times S_geo."""
     capacity = manip.pose.shape[1]
     n_lattice = 2 * manip.lattice_ncol[c] + 1
     for j in range(ys.shape[0]):
@@ -163,7 +200,7 @@ def collect_counted_forces(xs, ys, finger, hand, outs, links, statics, m_lo, ste
             if outs.point_class[j, col] != REACHED or outs.equilibrium[j, col]:
                 continue
             x = xs[col]
-            if touches_palm(x, y, hand.w, finger.r):
+            if touches_palm(x, y, hand.w, finger.r) or fingers_touch(fingers, j, col, finger):
                 continue
             i = col - ncol                    # world column: x = i h
             src_l = -i - step - m_lo          # the shared field's columns (gather_fingers)
@@ -228,21 +265,35 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @njit(cache=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, effects, out, manip):
+                           theta2_max, solver, effects, out, manip, n_threads):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
-    manip: a ManipulationOut with one row per cell, or None."""
+    manip: a ManipulationOut with one row per cell, or None; n_threads: Numba's thread count
+    (numba.get_num_threads(), which a cached kernel cannot call)."""
     tip, springs, collision = effects  # prange captures blocks only as arguments
+    memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
+    if collision is not None and cells.shape[0] > 0:
+        memo_shape = (n_threads, ws.shape[0], nys.max(), 2 * ncols.max() + 1, 5)
+    memo = np.empty(memo_shape)
+    memo_key = np.full((memo_shape[0], 2), np.nan)
     summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, manip)
+                              theta2_max, solver, tip, springs, collision, out, manip, memo,
+                              memo_key)
 
 
 @njit(cache=True, parallel=True)
 def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, manip):
+                              theta2_max, solver, tip, springs, collision, out, manip, memo,
+                              memo_key):
     for c in prange(cells.shape[0]):
+        t = numba.get_thread_id() if memo.shape[0] > 0 else 0
+        memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
+                     and cells[c + 1, 1] == cells[c, 1])
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision), ws, steps, ncols[c],
-                       nys[c], h, f_left, f_right, out[c], manip, c)
+                       nys[c], h, f_left, f_right, out[c], manip, c,
+                       memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
+                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),
+                       memo_next)
 
 
 @njit(cache=True)
@@ -275,8 +326,8 @@ def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, y
     ny = ys.shape[0]
     nx = xs.shape[0]
     fingers = new_finger_arrays(2, ny, nx)
-    finger_field_serial(dx_left, ys, finger, solver, effects, fingers, 0)
-    finger_field_serial(dx_right, ys, finger, solver, effects, fingers, 1)
+    finger_field_serial(dx_left, ys, finger, solver, finger_blocks(effects), fingers, 0)
+    finger_field_serial(dx_right, ys, finger, solver, finger_blocks(effects), fingers, 1)
     outs = new_outcome_arrays(ny, nx)
     stack = np.empty(ny * nx, dtype=np.int64)
     map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack, out,

@@ -28,9 +28,10 @@ from ..model import (
     VERTEX_POINT,
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
+from .collision import resolve_collisions, rests_on_other_finger
 from .finger import finger_statics, solve_finger
-from .part import (finger_polyline, fingers_cross, part_contained, part_in_equilibrium,
-                   resolve_collisions, tip_clearance)
+from .part import finger_polyline, fingers_cross, part_contained, part_in_equilibrium, \
+    tip_clearance
 from .point import classify_point, point_energy
 from .records import EffectBlocks, FingerState
 from .trajectory import trajectories
@@ -130,7 +131,10 @@ def fill_infeasible(j, i, fingers, outs, forces):
 
 @njit(cache=True)
 def point_forces(j, i, finger, fingers, forces):
-    """Contact forces of both fingers at a feasible point (per unit tension, world frame)."""
+    """Contact forces of both fingers at a feasible point (per unit tension, world frame).
+    Where finger_collision stopped a finger on the other, neither finger's forces are
+    determined (the finger-finger contact, model-notes D17)."""
+    touching = fingers_touch(fingers, j, i, finger)
     for side in range(2):
         st = finger_statics_at(fingers, side, j, i, finger)
         forces.proximal_normal[side, j, i] = st.proximal_normal
@@ -139,7 +143,16 @@ def point_forces(j, i, finger, fingers, forces):
         # the left finger's frame is the right one's mirror image in x
         forces.resultant_x[side, j, i] = st.resultant_x if side == 1 else -st.resultant_x
         forces.resultant_y[side, j, i] = st.resultant_y
-        forces.determined[side, j, i] = st.determined
+        forces.determined[side, j, i] = st.determined and not touching
+
+
+@njit(cache=True)
+def fingers_touch(fingers, j, i, finger):
+    """finger_collision stopped one of the point's fingers on the other (model-notes D17)."""
+    return (rests_on_other_finger(fingers.mode[0, j, i], fingers.t1[0, j, i],
+                                  fingers.t2[0, j, i], finger)
+            or rests_on_other_finger(fingers.mode[1, j, i], fingers.t1[1, j, i],
+                                     fingers.t2[1, j, i], finger))
 
 
 @njit(cache=True)
@@ -292,7 +305,7 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # ---------------------------------------------------------------------------------------------
 @njit(cache=True)
 def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, forces, stack,
-                     summary, every_point, equilibrium=True, caging=True):
+                     summary, every_point, equilibrium=True, caging=True, links=None):
     """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
     summary row. Serial (the sweep calls it inside its own parallel loop over maps);
     `map_from_fingers_parallel` is the same pipeline with the outcome rows in parallel.
@@ -300,9 +313,10 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
     Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
     equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
-    point, so a branch costs nothing measurable (docs/effects.md)."""
+    point, so a branch costs nothing measurable (docs/effects.md). `links`: the settled
+    fingers' link vectors for finger_collision (the sweep's, `collision.resolve_collisions`)."""
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
-                                             effects.finger_collision)
+                                             effects.finger_collision, links)
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,

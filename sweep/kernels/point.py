@@ -9,7 +9,7 @@ from numba import njit
 from ..model import EJECT, FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX, \
     VERTEX_POINT
 from .finger import OVERLAP, finger_energy, solve_finger, spring_energy
-from .part import collide
+from .collision import collide
 from .records import EffectBlocks, JointSprings
 
 

@@ -59,6 +59,14 @@ class EffectBlocks(NamedTuple):
 NO_EFFECTS = EffectBlocks(None, None, None)
 
 
+@njit(cache=True)
+def finger_blocks(effects):
+    """The blocks one finger's solution depends on (tip_contact, joint_springs): the finger
+    kernels compiled for a scene serve every scene that differs only in map-level blocks
+    (finger_collision), which saves compiling them again."""
+    return EffectBlocks(effects.tip_contact, effects.joint_springs, None)
+
+
 
 class TipContact(NamedTuple):
     """The tip_contact effect (MODEL 9, model-notes D15): the tip and the distal joint are real
@@ -88,6 +96,26 @@ class FingerCollision(NamedTuple):
 
     progress_step: float
     tol: float
+
+
+class SettledFingers(NamedTuple):
+    """What the sweep hands `collision.resolve_collisions` about a map's settled fingers, from
+    its cell's shared finger field: the link vectors of every shared point (`links`,
+    (4, y, offset): l1 cos t1, l1 sin t1, l2 cos phi, l2 sin phi), where the left and right
+    finger of world column i read offset start + stride * i, and `memo` (y, x, 5): per point
+    the settled angles (t1 left, t2 left, t1 right, t2 right) last met at this width by the
+    same thread, with their meeting (cells of one geometry group share most settled fingers),
+    read if `memo_read` (it holds this cell's links) and written if `memo_write` (the next
+    cell has the same links)."""
+
+    links: np.ndarray
+    left_start: int
+    left_stride: int
+    right_start: int
+    right_stride: int
+    memo: np.ndarray
+    memo_read: bool
+    memo_write: bool
 
 
 class Hand(NamedTuple):

@@ -1,0 +1,641 @@
+"""Two scenes of one sweep side by side: the paper's experiments (MODEL 10) as the paper models
+them (fingers may cross) and as a gripper works (with `finger_collision`), in one report.
+
+`build_comparison(store_1, store_2, out_dir, top_k=None, log=...)` reads two stores of the same
+designs, parts and grid (`check_comparable` refuses others) and writes into `out_dir`:
+
+- `best_designs.png`, `best_designs.csv`: per part, the best caging design of each scene and its
+  map, side by side; which parts change gripper;
+- `caging_vs_tip.png`, `caging_vs_tip.csv`, `representative_designs.csv`: caged versus
+  tip-prehension end points per design, each scene on the same axes;
+- `manipulation.png`, `manipulation.csv`, `scenario_a_candidates.csv`: Scenario A's best
+  candidate against Scenario B per part under each scene, and Scenario B's per-pose values;
+- `parameter_usage.png`, `parameter_usage.csv`: Scenario B's parameter usage of each scene;
+- `report.md`: every table, the rules, both scenes' settings, a templated reading and which
+  scene a designer should trust for hardware;
+- `report.json`: what the report was made from (a rerun on the same stores is a no-op).
+
+Every number comes from the stores (or from maps recomputed with a store's own settings). The
+single-store tables are `sweep.report`'s; a scene's best design per part is read through one
+function, `best_designs` (a refinement of contenders can later change it there).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from . import __version__
+from .report import (
+    DESIGN_DIMS,
+    MARKER,
+    NOTE_UNITLESS,
+    PARAMETERS,
+    REPRESENTATIVE_COLOURS,
+    TIE_DIGITS,
+    ReportError,
+    StoreData,
+    _compute_best_map,
+    _lattice_edges,
+    _png,
+    best_caging_rows,
+    candidate_rows,
+    caging_tip_parts,
+    csv_bytes,
+    draw_usage,
+    fmt,
+    identity,
+    manipulation_rows,
+    md_table,
+    open_store,
+    report_files,
+    representative_rows,
+    resolve_top_k,
+    usage_rows,
+)
+
+SCENE_COLOURS = ("#1f77b4", "#d62728")  # scene 1, scene 2 in every figure
+FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
+         "representative_designs.csv", "manipulation.png", "manipulation.csv",
+         "scenario_a_candidates.csv", "parameter_usage.png", "parameter_usage.csv",
+         "report.md", MARKER)
+
+
+# ---------------------------------------------------------------------------------------------
+# Two stores
+# ---------------------------------------------------------------------------------------------
+def crossing(st: StoreData) -> bool:
+    """The scene lets the fingers pass through each other (no finger_collision)."""
+    return "finger_collision" not in str(st.attrs.get("effects_on", "")).split()
+
+
+def scene_label(st: StoreData) -> str:
+    """What a store's scene is, from the effects it records (`effects_on`)."""
+    on = str(st.attrs.get("effects_on", "")).split()
+    label = ("fingers may cross (the paper's model)" if crossing(st)
+             else "fingers cannot cross (finger_collision)")
+    others = [e for e in on if e not in ("friction", "finger_collision")]
+    return label + ("; also " + ", ".join(others) if others else "")
+
+
+def scene_name(st: StoreData) -> str:
+    return str(st.attrs.get("name") or st.path.stem)
+
+
+def _values(st: StoreData, d: str) -> np.ndarray:
+    return np.asarray(st.ds[d].values, dtype=np.float64)
+
+
+def check_comparable(a: StoreData, b: StoreData) -> None:
+    """Refuse (ReportError, one line) two stores whose designs, parts, grid or command differ:
+    their scenes are compared point for point."""
+    def refuse(what: str, x, y):
+        raise ReportError(f"cannot compare {a.path} with {b.path}: their {what} differ "
+                          f"({x} against {y})")
+
+    for group, dims in (("designs", DESIGN_DIMS), ("parts", ("r", "mu"))):
+        for d in dims:
+            x, y = _values(a, d), _values(b, d)
+            if x.shape != y.shape or not np.array_equal(x, y):
+                refuse(group, f"{d} = {', '.join(fmt(v) for v in x)}",
+                       f"{d} = {', '.join(fmt(v) for v in y)}")
+    sa, sb = a.scene, b.scene
+    if (sa.h, sa.bounds) != (sb.h, sb.bounds):
+        refuse("grids", f"h = {fmt(sa.h)} ({sa.bounds})", f"h = {fmt(sb.h)} ({sb.bounds})")
+    ca, cb = sa.commands[0], sb.commands[0]
+    if (ca.f_left, ca.f_right) != (cb.f_left, cb.f_right):
+        refuse("commands", f"F = {fmt(ca.f_left)}/{fmt(ca.f_right)}",
+               f"F = {fmt(cb.f_left)}/{fmt(cb.f_right)}")
+    if a.manipulation != b.manipulation:
+        with_m, without = (a, b) if a.manipulation else (b, a)
+        raise ReportError(f"cannot compare {a.path} with {b.path}: {with_m.path} has the "
+                          f"manipulation metric and {without.path} not (config option outputs: "
+                          "{manipulation: true} in both, or in neither)")
+
+
+# ---------------------------------------------------------------------------------------------
+# Tables
+# ---------------------------------------------------------------------------------------------
+def best_designs(st: StoreData) -> list[dict]:
+    """A scene's best caging design per part (the one place the comparison reads it)."""
+    return best_caging_rows(st)
+
+
+def gripper(row: dict) -> tuple:
+    """What makes a design a gripper: configurations depend on r1, r2 only through R (MODEL
+    11), so designs with the same l1, l2, R, w are the same gripper and tie."""
+    return (row["l1"], row["l2"], float(f"{row['R']:.{TIE_DIGITS}g}"), row["w"])
+
+
+def best_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Per part: each scene's best design, whether they are the same gripper, and what each
+    scene's best design scores in the other scene."""
+    b1, b2 = best_designs(st1), best_designs(st2)
+    rows = []
+    for (ri, mi), x, y in zip(st1.parts(), b1, b2):
+        row = dict(r=x["r"], mu=x["mu"])
+        for s, best in (("1", x), ("2", y)):
+            row.update({f"{k}_{s}": best[k] for k in DESIGN_DIMS + ("R", "Lambda", "n_tied")})
+            row[f"n_caged_crossed_{s}"] = best["n_caged_crossed"]
+            row[f"n_caged_points_{s}"] = best["n_caged_points"]
+        row["same_gripper"] = gripper(x) == gripper(y)
+        row["Lambda_2_of_best_1"] = float(st2.per_design("Lambda", ri, mi)[x["design_index"]])
+        row["Lambda_1_of_best_2"] = float(st1.per_design("Lambda", ri, mi)[y["design_index"]])
+        rows.append(row)
+    return rows
+
+
+def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Every design's caged and tip-prehension counts in both scenes, for the caging-versus-tip
+    parts (MODEL 10)."""
+    rows = []
+    for ri, mi in caging_tip_parts(st1):
+        c = [st.per_design("n_caged", ri, mi) for st in (st1, st2)]
+        t = [st.per_design("n_tip_prehension", ri, mi) for st in (st1, st2)]
+        for k in range(c[0].size):
+            rows.append(dict(r=float(st1.r[ri]), mu=float(st1.mu[mi]), **st1.design(k),
+                             n_caged_1=int(c[0][k]), n_tip_prehension_1=int(t[0][k]),
+                             n_caged_2=int(c[1][k]), n_tip_prehension_2=int(t[1][k])))
+    return rows
+
+
+def representatives(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Each scene's three representative designs of the caging-versus-tip parts (the rules of
+    `sweep.report.representative_designs`)."""
+    rows = []
+    for s, st in (("1", st1), ("2", st2)):
+        for row in representative_rows(st):
+            rows.append(dict(scene=s, **row))
+    return rows
+
+
+def caging_tip_summary(st1: StoreData, st2: StoreData) -> list[dict]:
+    rows = []
+    for ri, mi in caging_tip_parts(st1):
+        for s, st in (("1", st1), ("2", st2)):
+            caged = st.per_design("n_caged", ri, mi)
+            tip = st.per_design("n_tip_prehension", ri, mi)
+            corr = (float(np.corrcoef(caged, tip)[0, 1]) if caged.std() > 0 and tip.std() > 0
+                    else float("nan"))
+            rows.append(dict(r=float(st.r[ri]), mu=float(st.mu[mi]), scene=s,
+                             designs_caging=int(np.count_nonzero(caged > 0)),
+                             designs_tip=int(np.count_nonzero(tip > 0)),
+                             designs_both=int(np.count_nonzero((caged > 0) & (tip > 0))),
+                             caged_sum=int(caged.sum()), tip_sum=int(tip.sum()),
+                             correlation=corr))
+    return rows
+
+
+def manip_rows(st1: StoreData, st2: StoreData, best1: dict, best2: dict) -> list[dict]:
+    """Per part: Scenario A (each scene's best candidate) and Scenario B under each scene."""
+    m1, m2 = manipulation_rows(st1, best1), manipulation_rows(st2, best2)
+    rows = []
+    for x, y in zip(m1, m2):
+        rows.append(dict(r=x["r"], mu=x["mu"], a_1=x["a"], b_1=x["b"],
+                         b_uncrossed_1=x["b_uncrossed"], winner_1=x["winner"], a_2=y["a"],
+                         b_2=y["b"], b_uncrossed_2=y["b_uncrossed"], winner_2=y["winner"]))
+    return rows
+
+
+def usage_pair_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    rows = []
+    for x, y in zip(usage_rows(st1), usage_rows(st2)):
+        rows.append(dict(r=x["r"], mu=x["mu"], **{f"{p}_1": x[p] for p in PARAMETERS},
+                         **{f"{p}_2": y[p] for p in PARAMETERS}))
+    return rows
+
+
+BEST_COLUMNS = (["r", "mu"] + [f"{k}_1" for k in DESIGN_DIMS + ("R", "Lambda")]
+                + [f"{k}_2" for k in DESIGN_DIMS + ("R", "Lambda")]
+                + ["same_gripper", "Lambda_2_of_best_1", "Lambda_1_of_best_2", "n_tied_1",
+                   "n_tied_2", "n_caged_crossed_1", "n_caged_crossed_2"])
+CT_COLUMNS = ["r", "mu"] + list(DESIGN_DIMS) + ["n_caged_1", "n_tip_prehension_1", "n_caged_2",
+                                                "n_tip_prehension_2"]
+CT_SUMMARY_COLUMNS = ["r", "mu", "scene", "designs_caging", "designs_tip", "designs_both",
+                      "caged_sum", "tip_sum", "correlation"]
+REP_COLUMNS = ["scene", "r", "mu", "kind", "l1", "l2", "r1", "r2", "w", "R", "n_caged",
+               "n_tip_prehension", "Lambda"]
+CAND_COLUMNS = ["scene", "l1", "l2", "r1", "r2", "R", "a_sum", "parts_positive", "best"]
+MANIP_COLUMNS = ["r", "mu", "a_1", "b_1", "b_uncrossed_1", "winner_1", "a_2", "b_2",
+                 "b_uncrossed_2", "winner_2"]
+USAGE_COLUMNS = (["r", "mu"] + [f"{p}_1" for p in PARAMETERS] + [f"{p}_2" for p in PARAMETERS])
+
+
+@dataclass
+class Comparison:
+    """Tables of a two-scene report (rows of plain values), as written."""
+
+    best: list[dict]
+    caging_tip: list[dict]
+    caging_tip_summary: list[dict]
+    representatives: list[dict]
+    top_k: int | None = None
+    candidates: list[dict] = field(default_factory=list)
+    best_candidates: tuple = ()
+    manipulation: list[dict] = field(default_factory=list)
+    usage: list[dict] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
+
+
+def make_tables(st1: StoreData, st2: StoreData, top_k: int | None) -> Comparison:
+    rep = Comparison(best=best_rows(st1, st2), caging_tip=caging_tip_rows(st1, st2),
+                     caging_tip_summary=caging_tip_summary(st1, st2),
+                     representatives=representatives(st1, st2), top_k=top_k)
+    if st1.manipulation:
+        c1, c2 = candidate_rows(st1, top_k), candidate_rows(st2, top_k)
+        rep.candidates = ([dict(scene="1", **c) for c in c1]
+                          + [dict(scene="2", **c) for c in c2])
+        best1 = next(c for c in c1 if c["best"])
+        best2 = next(c for c in c2 if c["best"])
+        rep.best_candidates = (best1, best2)
+        rep.manipulation = manip_rows(st1, st2, best1, best2)
+        rep.usage = usage_pair_rows(st1, st2)
+    return rep
+
+
+# ---------------------------------------------------------------------------------------------
+# Figures: each draws the two scenes on one canvas, the same scale where they share one
+# ---------------------------------------------------------------------------------------------
+def _short(st: StoreData) -> str:
+    return "fingers may cross" if crossing(st) else "fingers cannot cross"
+
+
+def best_designs_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -> Figure:
+    """Per part two panels, scene 1 then scene 2: each scene's best design and its map; the
+    pair framed red where the best gripper changes."""
+    from .plot import draw_map_panel
+
+    n_r, n_mu = st1.r.size, st1.mu.size
+    fig = Figure(figsize=(8.6 * n_r + 0.5, 3.4 * n_mu + 1.4), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_2d(fig.subplots(n_mu, 2 * n_r, squeeze=False))
+    for k, ((ri, mi), row) in enumerate(zip(st1.parts(), rows)):
+        log(f"best designs of both scenes: {k + 1}/{len(rows)} (r = {row['r']:g}, "
+            f"mu = {row['mu']:g})")
+        for s, st in ((0, st1), (1, st2)):
+            tag = str(s + 1)
+            design = {d: row[f"{d}_{tag}"] for d in DESIGN_DIMS}
+            m = _compute_best_map(st, design, ri, mi)
+            ax = axes[mi, 2 * ri + s]
+            text = (f"{_short(st)}: r={row['r']:g}, μ={row['mu']:g}\n"
+                    f"l1={design['l1']:g} l2={design['l2']:g} R={fmt(row[f'R_{tag}'])} "
+                    f"w={design['w']:g}\nΛ={fmt(row[f'Lambda_{tag}'])}")
+            draw_map_panel(ax, m, title=text, colorbar_label=None, fontsize=7)
+            for spine in ax.spines.values():
+                spine.set_edgecolor("#999999" if row["same_gripper"] else "#ff0000")
+                spine.set_linewidth(1.0 if row["same_gripper"] else 3.0)
+    n_changed = sum(not row["same_gripper"] for row in rows)
+    fig.suptitle(f"Best caging design of each part in two scenes: left of each pair "
+                 f"{scene_name(st1)} ({_short(st1)}), right {scene_name(st2)} "
+                 f"({_short(st2)})\nthick red frames: the best gripper (l1, l2, R, w) changes "
+                 f"({n_changed} of {len(rows)} parts); colour: energy V, each panel its own "
+                 "scale\nwhite hatching: part in equilibrium; pink outline: caged region; greys "
+                 f"and tan: outside P_j; gripper drawn at a representative caged pose; "
+                 f"{NOTE_UNITLESS}", fontsize=12)
+    return fig
+
+
+def caging_tip_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figure:
+    """Per caging-versus-tip part, both scenes' designs on the same axes (caged versus
+    tip-prehension end points), with each scene's representative designs."""
+    parts = caging_tip_parts(st1)
+    fig = Figure(figsize=(16, 6.2 * len(parts) + 0.8), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(parts), 2, squeeze=False, sharex="row", sharey="row")
+    markers = {"caging focused": "o", "tip focused": "D", "compromise": "s"}
+    for p, (ri, mi) in enumerate(parts):
+        r, mu = float(st1.r[ri]), float(st1.mu[mi])
+        for s, st in ((0, st1), (1, st2)):
+            ax = axes[p, s]
+            for s2, other in ((1 - s, (st2, st1)[s]), (s, st)):  # the other scene faint
+                caged = other.per_design("n_caged", ri, mi)
+                tip = other.per_design("n_tip_prehension", ri, mi)
+                ax.scatter(caged, tip, s=6 if s2 == s else 4, linewidths=0,
+                           color=SCENE_COLOURS[s2], alpha=0.7 if s2 == s else 0.12,
+                           label=f"{scene_name(other)} ({_short(other)}): {caged.size} designs"
+                           + ("" if s2 == s else " (faint)"))
+            for row in rep.representatives:
+                if row["scene"] == str(s + 1) and row["r"] == r and row["mu"] == mu:
+                    ax.scatter([row["n_caged"]], [row["n_tip_prehension"]], s=120,
+                               marker=markers[row["kind"]], facecolors="none",
+                               edgecolors=REPRESENTATIVE_COLOURS[row["kind"]], linewidths=2.2,
+                               zorder=5, label=f"{row['kind']}: l1={row['l1']:g} "
+                               f"l2={row['l2']:g} R={fmt(row['R'])} w={row['w']:g}")
+            ax.set_title(f"part r={r:g}, μ={mu:g}: {scene_name(st)} ({_short(st)})",
+                         fontsize=11)
+            ax.set_xlabel("grid points whose trajectory ends caged (n_caged)")
+            ax.set_ylabel("grid points ending in tip prehension (n_tip_prehension)")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="best")
+    fig.suptitle("Caging versus tip prehension per design, smallest and largest part at the "
+                 "highest friction: each scene in its colour, the other scene faint behind it;\n"
+                 f"representative designs (rules in report.md) marked; {NOTE_UNITLESS}",
+                 fontsize=11)
+    return fig
+
+
+def manipulation_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figure:
+    """Top: per part the four metrics (A and B under each scene, log scale); bottom: Scenario
+    B's per-pose values of one part under both scenes (one colour scale)."""
+    rows = rep.manipulation
+    fig = Figure(figsize=(17, 13), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subfigures(2, 1, height_ratios=[1, 1.1])
+    ax = top.subplots()
+    xs = np.arange(len(rows))
+    series = [("a_1", -0.3, SCENE_COLOURS[0], "//", f"A, {scene_name(st1)}"),
+              ("b_1", -0.1, SCENE_COLOURS[0], "", f"B, {scene_name(st1)}"),
+              ("a_2", 0.1, SCENE_COLOURS[1], "//", f"A, {scene_name(st2)}"),
+              ("b_2", 0.3, SCENE_COLOURS[1], "", f"B, {scene_name(st2)}")]
+    allv = np.array([row[k] for row in rows for k, *_ in series])
+    positive = allv[allv > 0]
+    floor = positive.min() / 3 if positive.size else 1e-3
+    for key, off, colour, hatch, label in series:
+        vals = np.array([row[key] for row in rows])
+        ax.bar(xs + off, np.where(vals > 0, vals, np.nan), width=0.2, color=colour,
+               hatch=hatch, edgecolor="white", label=label)
+    ax.set_yscale("log")
+    ax.set_ylim(floor, (positive.max() if positive.size else 1.0) * 5)
+    ax.set_xlim(-0.7, len(rows) - 0.3)
+    ax.set_xticks(xs, [f"r={row['r']:g}\nμ={row['mu']:g}\n{row['winner_1']} / "
+                       f"{row['winner_2']}" for row in rows], fontsize=8)
+    ax.set_xlabel("part (radius r, friction μ); the scenario with the larger metric under "
+                  f"{scene_name(st1)} / under {scene_name(st2)}")
+    ax.set_ylabel("manipulation metric (sum over poses of the inscribed radius;\nunitless, "
+                  "log scale, 0 not drawn)")
+    ax.legend(fontsize=9, ncol=2)
+    ax.grid(axis="y", alpha=0.3)
+    b1, b2 = rep.best_candidates
+    top.suptitle(f"In-hand manipulation per part, Scenario A (hatched; best candidate "
+                 f"{scene_name(st1)}: l1={b1['l1']:g} l2={b1['l2']:g} R={fmt(b1['R'])}; "
+                 f"{scene_name(st2)}: l1={b2['l1']:g} l2={b2['l2']:g} R={fmt(b2['R'])}) and "
+                 "Scenario B (solid), each scene in its colour", fontsize=11)
+    k = int(np.argmax([min(row["b_1"], row["b_2"]) for row in rows]))
+    row = rows[k]
+    ri = int(np.flatnonzero(st1.r == row["r"])[0])
+    mi = int(np.flatnonzero(st1.mu == row["mu"])[0])
+    h = st1.scene.h
+    maps = []
+    for st in (st1, st2):
+        pv = st.ds["manipulation_b_pose_value"].isel(r=ri, mu=mi)
+        maps.append((pv["pose_column"].values * h, row["r"] + pv["pose_row"].values * h,
+                     pv.values))
+    vmax = max(max(float(v.max()) for _, _, v in maps), 1e-12)
+    axs = bottom.subplots(1, 2, sharex=True, sharey=True)
+    mesh = None
+    for axp, st, (x, y, v), total in zip(axs, (st1, st2), maps, (row["b_1"], row["b_2"])):
+        mesh = axp.pcolormesh(_lattice_edges(x, h), _lattice_edges(y, h),
+                              np.ma.masked_where(v <= 0, v), cmap="magma_r", vmin=0.0,
+                              vmax=vmax, shading="flat")
+        axp.set_aspect("equal")
+        axp.set_facecolor("#eeeeee")
+        axp.set_xlabel("part centre x")
+        axp.set_title(f"{scene_name(st)} ({_short(st)}): Scenario B metric {fmt(total)}, "
+                      f"{int((v > 0).sum())} poses with a positive value", fontsize=10)
+    axs[0].set_ylabel("part centre y")
+    on = [(x[(v > 0).any(0)], y[(v > 0).any(1)]) for x, y, v in maps]
+    xs_on = np.concatenate([a for a, _ in on])
+    ys_on = np.concatenate([b for _, b in on])
+    if xs_on.size:
+        axs[0].set_xlim(xs_on.min() - 4 * h, xs_on.max() + 4 * h)
+        axs[0].set_ylim(min(0.0, ys_on.min() - 4 * h), ys_on.max() + 4 * h)
+    cb = bottom.colorbar(mesh, ax=list(axs), shrink=0.8, pad=0.01)
+    cb.set_label("pose value (inscribed radius of the force hull, unitless)", fontsize=9)
+    bottom.suptitle(f"Scenario B per pose for part r={row['r']:g}, μ={row['mu']:g} (the "
+                    "largest min over the two scenes), one colour scale; grey: value 0 or no "
+                    f"pose; {NOTE_UNITLESS}", fontsize=11)
+    return fig
+
+
+def usage_figure(st1: StoreData, st2: StoreData, rows: list[dict]) -> Figure:
+    """Scenario B's parameter usage per part, the two scenes side by side, one colour scale."""
+    fig = Figure(figsize=(13, 0.42 * len(rows) + 2.4), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    axs = fig.subplots(1, 2, sharey=True)
+    im = None
+    for ax, tag, st in zip(axs, ("1", "2"), (st1, st2)):
+        vals = np.array([[row[f"{p}_{tag}"] for p in PARAMETERS] for row in rows])
+        im = draw_usage(ax, vals, "none")
+        ax.set_title(f"{scene_name(st)} ({_short(st)})", fontsize=10)
+        ax.set_xlabel("design parameter")
+    axs[0].set_yticks(range(len(rows)), [f"r={row['r']:g}, μ={row['mu']:g}" for row in rows],
+                      fontsize=8)
+    axs[0].set_ylabel("part (radius r, friction μ)")
+    cb = fig.colorbar(im, ax=list(axs), pad=0.02)
+    cb.set_label("usage: spread among hull-vertex geometries / search range (unitless, 0..1)",
+                 fontsize=8)
+    fig.suptitle("Scenario B parameter usage per part in both scenes ('none': no pose with a "
+                 "positive value)", fontsize=11)
+    return fig
+
+
+# ---------------------------------------------------------------------------------------------
+# The report
+# ---------------------------------------------------------------------------------------------
+def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> dict:
+    """What a two-scene report is made from; equal identities make a rerun a no-op."""
+    one, two = identity(st1, top_k), identity(st2, top_k)
+    return dict(kind="comparison", store=[one["store"], two["store"]],
+                config_hash=[one["config_hash"], two["config_hash"]],
+                store_created_utc=[one["store_created_utc"], two["store_created_utc"]],
+                top_k=top_k, manipulation=st1.manipulation, report_version=__version__)
+
+
+def open_pair(store_1: Path, store_2: Path, top_k: int | None):
+    """Both stores, checked comparable, and the Scenario A top-k they share."""
+    st1, st2 = open_store(Path(store_1)), open_store(Path(store_2))
+    check_comparable(st1, st2)
+    k1, k2 = resolve_top_k(st1, top_k), resolve_top_k(st2, top_k)
+    if k1 != k2:
+        raise ReportError(f"cannot compare {st1.path} with {st2.path}: their Scenario A top-k "
+                          f"differ ({k1} against {k2}); pass --top-k to use one for both")
+    return st1, st2, k1
+
+
+def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | None = None,
+                     log=lambda s: None, pair=None) -> Comparison:
+    """Write every file of the two-scene report into `out_dir` (atomically, one by one;
+    `report.json` last, so a complete marker means a complete report)."""
+    st1, st2, top_k = pair or open_pair(store_1, store_2, top_k)
+    rep = make_tables(st1, st2, top_k)
+    write, finish = report_files(Path(out_dir), comparison_identity(st1, st2, top_k), rep.files)
+
+    write("best_designs.csv", csv_bytes(rep.best, BEST_COLUMNS))
+    write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
+    write("representative_designs.csv", csv_bytes(rep.representatives, REP_COLUMNS))
+    if st1.manipulation:
+        write("scenario_a_candidates.csv", csv_bytes(rep.candidates, CAND_COLUMNS))
+        write("manipulation.csv", csv_bytes(rep.manipulation, MANIP_COLUMNS))
+        write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
+        write("parameter_usage.png", _png(usage_figure(st1, st2, rep.usage)))
+        write("manipulation.png", _png(manipulation_figure(st1, st2, rep)))
+    write("caging_vs_tip.png", _png(caging_tip_figure(st1, st2, rep)))
+    write("best_designs.png", _png(best_designs_figure(st1, st2, rep.best, log)))
+    write("report.md", markdown(st1, st2, rep).encode())
+    finish()
+    return rep
+
+
+# ---------------------------------------------------------------------------------------------
+# report.md
+# ---------------------------------------------------------------------------------------------
+def _part(row) -> str:
+    return f"r = {fmt(row['r'])}, mu = {fmt(row['mu'])}"
+
+
+def _pct(x, total) -> str:
+    return fmt(100.0 * x / total if total else float("nan")) + " %"
+
+
+def _settings(st: StoreData, tag: str) -> list[str]:
+    a, sc = st.attrs, st.scene
+    return [f"- Scene {tag}: `{st.path}` (config `{scene_name(st)}`, hash "
+            f"`{str(a.get('config_hash'))[:12]}`, written {a.get('created_utc')} by sweep "
+            f"{a.get('sweep_version')}): **{scene_label(st)}**; effects on: "
+            f"{a.get('effects_on')}; trajectory {sc.accuracy.trajectory}, reconfig_step "
+            f"{fmt(sc.accuracy.reconfig_step)}, root_tol {fmt(sc.accuracy.root_tol)}; "
+            f"{int(a.get('n_maps', 0)):,} maps in {fmt(a.get('compute_seconds', math.nan))} s of "
+            f"compute ({fmt(a.get('wall_seconds', math.nan))} s wall, {a.get('threads', '?')} "
+            "thread(s))"]
+
+
+def trust(st1: StoreData, st2: StoreData, rep: Comparison) -> list[str]:
+    """Which scene a designer should trust for hardware, and why (numbers from the tables)."""
+    physical = [t for t, st in (("1", st1), ("2", st2)) if not crossing(st)]
+    if len(physical) != 1:
+        return ["- Both scenes treat finger collision alike (" + scene_label(st1) + "; "
+                + scene_label(st2) + "): the choice between them is not about collision."]
+    p = physical[0]
+    q = "2" if p == "1" else "1"
+    stp, stq = (st1, st2) if p == "1" else (st2, st1)
+    best = rep.best
+    changed = [row for row in best if not row["same_gripper"]]
+    crossed = sum(row[f"n_caged_crossed_{q}"] for row in best)
+    out = [f"- **Trust scene {p} ({scene_name(stp)}: {scene_label(stp)}) for hardware.** Real "
+           "fingers cannot pass through each other; scene "
+           f"{q} ({scene_name(stq)}) lets them, so some of its caged points and manipulation "
+           "poses are closed by fingers that overlap, which no gripper can do. Scene "
+           f"{p} stops the fingers where they first meet (model-notes D14) and drops the poses "
+           "where they press on each other from the manipulation metric (D17)."]
+    out.append(f"- It matters: the best gripper (l1, l2, R, w) differs on {len(changed)} of "
+               f"{len(best)} parts"
+               + (": " + "; ".join(_part(row) for row in changed) if changed else "")
+               + ".")
+    lost = [(row, row[f"Lambda_{p}_of_best_{q}"], row[f"Lambda_{p}"]) for row in changed]
+    if lost:
+        worst = min(lost, key=lambda t: t[1] / t[2] if t[2] > 0 else 1.0)
+        out.append(f"- Built as scene {q} ranks it, the part {_part(worst[0])}'s gripper "
+                   f"would cage with Λ = {fmt(worst[1])} in scene {p} instead of the "
+                   f"{fmt(worst[2])} its best design there reaches "
+                   f"({_pct(worst[1], worst[2])}).")
+    if crossed:
+        total = sum(row[f"n_caged_points_{q}"] for row in best)
+        out.append(f"- In scene {q}'s best designs, {crossed} of {total} caged points "
+                   f"({_pct(crossed, total)}) have crossed fingers.")
+    if rep.manipulation:
+        b = sum(row[f"b_{q}"] for row in rep.manipulation)
+        bu = sum(row[f"b_uncrossed_{q}"] for row in rep.manipulation)
+        out.append(f"- Of scene {q}'s Scenario B metric summed over parts ({fmt(b)}), "
+                   f"{fmt(b - bu)} ({_pct(b - bu, b)}) comes from poses with crossed fingers.")
+    out.append(f"- Scene {q} remains the paper's model: use it to reproduce or discuss the "
+               "paper's numbers, not to choose a gripper to build.")
+    return out
+
+
+def reading(st1: StoreData, st2: StoreData, rep: Comparison) -> list[str]:
+    out = []
+    for tag, st in (("1", st1), ("2", st2)):
+        lam = [row[f"Lambda_{tag}"] for row in rep.best]
+        rs = sorted({fmt(row[f"R_{tag}"]) for row in rep.best}, key=float)
+        ws = sorted({fmt(row[f"w_{tag}"]) for row in rep.best}, key=float)
+        out.append(f"- Caging, scene {tag} ({scene_name(st)}): best Λ per part from "
+                   f"{fmt(min(lam))} to {fmt(max(lam))}, summed {fmt(sum(lam))}; the best "
+                   f"designs use R in {{{', '.join(rs)}}} and w in {{{', '.join(ws)}}}.")
+    for row in rep.caging_tip_summary:
+        out.append(f"- Caging versus tip prehension, part {_part(row)}, scene {row['scene']}: "
+                   f"{row['designs_caging']} designs end some points caged, "
+                   f"{row['designs_tip']} some in tip prehension, {row['designs_both']} both; "
+                   f"caged end points summed over designs {row['caged_sum']}, tip "
+                   f"{row['tip_sum']}; correlation {fmt(row['correlation'])}.")
+    if rep.manipulation:
+        for tag, st, best in (("1", st1, rep.best_candidates[0]),
+                              ("2", st2, rep.best_candidates[1])):
+            rows = rep.manipulation
+            n_a = sum(r[f"winner_{tag}"] == "A" for r in rows)
+            n_b = sum(r[f"winner_{tag}"] == "B" for r in rows)
+            out.append(f"- Manipulation, scene {tag} ({scene_name(st)}): best Scenario A "
+                       f"candidate l1 = {fmt(best['l1'])}, l2 = {fmt(best['l2'])}, r1 = "
+                       f"{fmt(best['r1'])}, r2 = {fmt(best['r2'])} (R = {fmt(best['R'])}), "
+                       f"metric summed {fmt(best['a_sum'])}; Scenario B summed "
+                       f"{fmt(sum(r[f'b_{tag}'] for r in rows))}; A wins on {n_a} parts, B on "
+                       f"{n_b}.")
+        flips = [r for r in rep.manipulation if r["winner_1"] != r["winner_2"]]
+        out.append(f"- Scenario A versus B changes winner on {len(flips)} of "
+                   f"{len(rep.manipulation)} parts"
+                   + (": " + "; ".join(_part(r) for r in flips) if flips else "") + ".")
+        means = []
+        for tag in ("1", "2"):
+            u = np.array([[row[f"{p}_{tag}"] for p in PARAMETERS] for row in rep.usage])
+            ok = ~np.isnan(u).any(axis=1)
+            means.append(u[ok].mean(axis=0) if ok.any() else np.full(len(PARAMETERS), np.nan))
+        out.append("- Parameter usage (Scenario B, mean over parts with a positive pose), "
+                   "scene 1 against scene 2: "
+                   + ", ".join(f"{p} {fmt(means[0][i])} / {fmt(means[1][i])}"
+                               for i, p in enumerate(PARAMETERS)) + ".")
+    return out
+
+
+def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
+    sc = st1.scene
+    L = [f"# Report: two scenes of {scene_name(st1)} and {scene_name(st2)}", "",
+         f"Scene 1 = {scene_name(st1)}: {scene_label(st1)}. Scene 2 = {scene_name(st2)}: "
+         f"{scene_label(st2)}. Report by sweep {__version__}; columns `_1` and `_2` are the "
+         "scenes'.", "", "## Which scene to trust for hardware", ""]
+    L += trust(st1, st2, rep)
+    L += ["", "## Settings", ""]
+    L += _settings(st1, "1") + _settings(st2, "2")
+    L += ["- Same in both (checked): designs "
+          + "; ".join(f"{d} = {', '.join(fmt(v) for v in st1.ds[d].values)}"
+                      for d in DESIGN_DIMS)
+          + f"; parts r = {', '.join(fmt(v) for v in st1.r)}, mu = "
+          f"{', '.join(fmt(v) for v in st1.mu)}; grid h = {fmt(sc.h)} ({sc.bounds}); command "
+          f"F_left = {fmt(sc.commands[0].f_left)}, F_right = {fmt(sc.commands[0].f_right)}"
+          + (f"; Scenario A top-k = {rep.top_k}" if rep.top_k else ""),
+          "- All quantities are unitless (model units)."]
+    L += ["", "## Rules", "",
+          "- Each scene's tables follow the single-store report's rules (`sweep report "
+          "STORE`): best design = largest Λ, first in store order among ties at "
+          f"{TIE_DIGITS} significant digits; representative designs and Scenario A candidates "
+          "as there.",
+          "- Same gripper: the same (l1, l2, R = r2/r1, w); designs that differ only in r1, r2 "
+          "at equal R close alike (MODEL 11). `Lambda_2_of_best_1`: scene 2's Λ of scene 1's "
+          "best design (and the other way round).",
+          "- Maps are recomputed with `compute_map` at each store's own settings."]
+    L += ["", "## 1. Best caging design per part (`best_designs.png`, `best_designs.csv`)", "",
+          md_table(rep.best, BEST_COLUMNS)]
+    L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, `caging_vs_tip.csv`, "
+          "`representative_designs.csv`)", "",
+          md_table(rep.caging_tip_summary, CT_SUMMARY_COLUMNS), "",
+          md_table(rep.representatives, REP_COLUMNS)]
+    if rep.manipulation:
+        L += ["", "## 3. Scenario A versus Scenario B per part (`manipulation.png`, "
+              "`manipulation.csv`, `scenario_a_candidates.csv`)", "",
+              "a: the scene's best Scenario A candidate; b: Scenario B; b_uncrossed: B over "
+              "poses whose fingers do not cross (under finger_collision the same as b, "
+              "model-notes D17).", "",
+              md_table(rep.manipulation, MANIP_COLUMNS), "",
+              "Best candidates:", "",
+              md_table([c for c in rep.candidates if c["best"]], CAND_COLUMNS),
+              "", "## 4. Parameter usage, Scenario B (`parameter_usage.png`, "
+              "`parameter_usage.csv`)", "", md_table(rep.usage, USAGE_COLUMNS)]
+    else:
+        L += ["", "## 3, 4. Manipulation and parameter usage", "",
+              "Skipped: the stores have no manipulation variables (config option "
+              "`outputs: {manipulation: true}`)."]
+    L += ["", "## Reading", ""] + reading(st1, st2, rep)
+    L.append("")
+    return "\n".join(L)
