@@ -4,8 +4,10 @@
 Array task ``i`` runs ``sweep run CONFIG --out DIR --chunks N``; `sweep run` reads the chunk index
 from ``SLURM_ARRAY_TASK_ID`` and its thread count from ``SLURM_CPUS_PER_TASK``. Logs go to
 ``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` and
-``sweep report`` once every array task has succeeded; `submit` hands a script file to ``sbatch``
-and returns the job id.
+``sweep report`` once every array task has succeeded; with a config's `refine:` the merge job
+only merges, and a refine job (`refine_script`, submitted with a dependency on the merge job,
+the array tasks' cores) runs ``sweep refine`` and ``sweep report``. `submit` hands a script file
+to ``sbatch`` and returns the job id.
 """
 from __future__ import annotations
 
@@ -83,9 +85,11 @@ def report_dir(results: str) -> str:
 
 def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
                  time: str = "01:00:00", partition: str | None = None,
-                 account: str | None = None, extra: Mapping[str, str] | None = None) -> str:
+                 account: str | None = None, extra: Mapping[str, str] | None = None,
+                 refine: bool = False) -> str:
     """Text of the sbatch script that merges the shards of `out_dir` into the store `results`
-    and writes its report (`report_dir(results)`).
+    and writes its report (`report_dir(results)`); with `refine`, it only merges
+    (``--no-refine``): the refine job (`refine_script`) refines and reports.
 
     It is submitted with ``--dependency=afterok:<array job id>`` (the id is known only then), so
     it runs once, after every array task succeeded. One core: the merge only copies arrays.
@@ -103,8 +107,51 @@ def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = 
         "",
         "# Runs after every array task succeeded (submitted with --dependency=afterok:ARRAY_ID).",
         "set -euo pipefail",
+    ]
+    if refine:
+        lines += [f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)} "
+                  "--no-refine",
+                  "# The refine job (--dependency=afterok:THIS_JOB) refines and reports.", ""]
+        return "\n".join(lines)
+    lines += [
         f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)}",
-        "# The report of the merged store: figures, tables, report.md (see `sweep report --help`).",
+        _REPORT_COMMENT,
+        f"{sweep_cmd} report {shlex.quote(results)} --out {shlex.quote(report_dir(results))}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+_REPORT_COMMENT = ("# The report of the merged store: figures, tables, report.md (see "
+                   "`sweep report --help`).")
+
+
+def refine_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
+                  cpus_per_task: int = 4, time: str = "01:00:00", mem: str | None = None,
+                  partition: str | None = None, account: str | None = None,
+                  extra: Mapping[str, str] | None = None) -> str:
+    """Text of the sbatch script that refines the merged store `results` (`sweep refine`: the
+    contenders' maps on finer grids, threads = the task's cores; resumes if rerun) and writes
+    its report. Submitted with ``--dependency=afterok:<merge job id>``."""
+    flags = {
+        "cpus-per-task": str(cpus_per_task),
+        "error": f"{out_dir}/logs/refine_%j.err",
+        "job-name": job_name,
+        "ntasks": "1",
+        "output": f"{out_dir}/logs/refine_%j.out",
+        "time": time,
+    }
+    if mem:
+        flags["mem"] = mem
+    lines = _header(flags, partition, account, extra)
+    lines += [
+        "",
+        "# Runs after the merge job succeeded (submitted with --dependency=afterok:MERGE_ID).",
+        "# Resumes from RESULTS.refine/ if rerun: sbatch this script again.",
+        "set -euo pipefail",
+        "export OMP_NUM_THREADS=1",
+        f"{sweep_cmd} refine {shlex.quote(results)} --no-progress",
+        _REPORT_COMMENT,
         f"{sweep_cmd} report {shlex.quote(results)} --out {shlex.quote(report_dir(results))}",
         "",
     ]
