@@ -141,7 +141,7 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
         _run_refinement(out, scene.refine, threads, progress, restart, wait)
 
 
-def _run_refinement(store, settings, threads, progress, restart, wait):
+def _run_refinement(store, settings, threads, progress, restart, wait, force=False):
     """The refinement stage of a store (`sweep run`, `sweep merge`, `sweep refine`), with the
     CLI's messages."""
     from .refine import refine_store
@@ -149,7 +149,7 @@ def _run_refinement(store, settings, threads, progress, restart, wait):
 
     try:
         res = refine_store(store, settings, threads=threads, progress=progress,
-                           restart=restart, wait=wait)
+                           restart=restart, wait=wait, force=force)
     except KeyboardInterrupt as exc:
         where = refine_dir(store)
         hint = (f"finished refinement batches are kept in {where}; rerun the same command to "
@@ -189,8 +189,10 @@ def _run_refinement(store, settings, threads, progress, restart, wait):
               help="Progress bar on stderr, one per level.")
 @click.option("--restart", is_flag=True,
               help="Discard finished batches of an earlier refinement instead of resuming.")
+@click.option("--force", is_flag=True,
+              help="Refine again even if the store is refined with these settings (timing).")
 @WAIT
-def refine(store, levels, bound, min_contenders, threads, progress, restart, wait):
+def refine(store, levels, bound, min_contenders, threads, progress, restart, force, wait):
     """Refine the best designs of a results store: per part and command, recompute the
     contenders (designs whose screened caging area is near the best) at h/2, h/4, ... until the
     best design's lead over every other contender exceeds the change between the last two
@@ -226,7 +228,7 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, wai
             refine_settings(settings.as_dict(), scene.values, scene.h)
         except SceneError as exc:
             raise UserError(str(exc).replace("refine.", "--").replace("_", "-")) from None
-    _run_refinement(store, settings, threads, progress, restart, wait)
+    _run_refinement(store, settings, threads, progress, restart, wait, force)
 
 
 @click.command("slurm", cls=SweepCommand,

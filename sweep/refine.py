@@ -64,7 +64,7 @@ STATUS = {name: code for code, name in enumerate(REFINE_STATUS_MEANINGS)}
 #: in floating point, 0.06/0.18 is 0.3333333333333333).
 R_DIGITS = 12
 #: Grid points per work file: about a second of compute on two cores, so a kill loses little.
-BATCH_POINTS = 6_000_000
+BATCH_POINTS = 10_000_000
 WORK_MANIFEST = "manifest.json"
 
 
@@ -142,50 +142,81 @@ def lead(now: np.ndarray, b: int) -> float:
 # ---------------------------------------------------------------------------------------------
 # Maps at a level
 # ---------------------------------------------------------------------------------------------
-def map_cost(scene: Scene, designs: np.ndarray, parts: np.ndarray, key, h: float) -> int:
-    """Grid points of the map of (part, design) `key` at spacing h."""
-    l1, l2, _, _, w = designs[key[1]]
-    return grid_points(l1, l2, w, scene.values["r"][parts[key[0], 0]], h)
+def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Per map (part, design) of `keys`, its cell: (command, l1, l2, r1, r2, r index, mu index)
+    as a row of float64 (n, 7); maps of one cell share the finger field."""
+    p, d = parts[keys[:, 0]], designs[keys[:, 1]]
+    return np.column_stack([p[:, 2], d[:, :4], p[:, 0], p[:, 1]]).astype(np.float64)
 
 
 def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
                  h: float) -> np.ndarray:
     """Caging area of the maps `keys` ((n, 2): part, design) at spacing h, with the scene's
-    limits, accuracy and effects: the sweep's own path (`batch.summarize_cells`), one call per
-    (command, width), its cells in parallel."""
+    limits, accuracy and effects, by the sweep's own path (`batch.summarize_cells`): each cell
+    (design without w, part, command) once, at the widths of its maps in `keys` (one finger
+    field serves them all); one call per (command, set of widths), its cells in parallel in the
+    order of their first map in `keys`. (Measured against one call per width and against whole
+    cells at every width: docs/performance.md.)"""
     out = np.empty(keys.shape[0])
-    r_vals, mu_vals = scene.values["r"], scene.values["mu"]
-    w_of = designs[keys[:, 1], 4]
-    cmd_of = parts[keys[:, 0], 2]
-    for ci, w in sorted(set(zip(cmd_of.tolist(), w_of.tolist()))):
-        rows = np.flatnonzero((cmd_of == ci) & (w_of == w))
-        p, d = parts[keys[rows, 0]], designs[keys[rows, 1]]
-        cells = np.column_stack([d[:, :4], np.asarray(r_vals)[p[:, 0]],
-                                 np.asarray(mu_vals)[p[:, 1]]])
-        res = batch.summarize_cells(cells, np.array([w]), scene.commands[ci], h, scene.limits,
-                                    scene.accuracy, scene.effects)
-        out[rows] = res[:, 0, CAGING_AREA]
+    index: dict = {}
+    which = np.array([index.setdefault(tuple(c), len(index))
+                      for c in cell_keys(designs, parts, keys)], dtype=np.int64)
+    cells = np.array(list(index), dtype=np.float64).reshape(-1, 7)
+    w_index = keys[:, 1] % scene.widths.size           # designs in store order: w fastest
+    widths_of = [set() for _ in range(cells.shape[0])]
+    for c, wi in zip(which, w_index):
+        widths_of[c].add(int(wi))
+    groups: dict = {}
+    for c in range(cells.shape[0]):
+        groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
+    r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
+    for (ci, ws), rows in groups.items():
+        c = cells[rows]
+        res = batch.summarize_cells(
+            np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
+            scene.widths[list(ws)], scene.commands[ci], h, scene.limits, scene.accuracy,
+            scene.effects)
+        at = np.full(cells.shape[0], -1)
+        at[rows] = np.arange(len(rows))
+        mine = np.flatnonzero(at[which] >= 0)
+        column = {wi: k for k, wi in enumerate(ws)}
+        out[mine] = res[at[which[mine]], [column[int(wi)] for wi in w_index[mine]], CAGING_AREA]
     return out
 
 
 def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
                   h: float) -> list[np.ndarray]:
-    """A level's maps in a fixed order ((command, width) groups, largest maps first inside each
-    group, so that the threads' last maps are small ones) cut into batches of at most
-    BATCH_POINTS grid points (at least one map each)."""
-    cost = np.array([map_cost(scene, designs, parts, k, h) for k in keys], dtype=np.int64)
-    order = np.lexsort((keys[:, 0], keys[:, 1], -cost, designs[keys[:, 1], 4],
-                        parts[keys[:, 0], 2]))
+    """A level's maps in a fixed order, cut into batches of whole cells (all their maps of the
+    level) of at most BATCH_POINTS grid points (at least one cell each). Cells with the same
+    widths are consecutive (`compute_maps` makes one kernel call of them), largest first, so
+    that the threads, which take cells one by one, end on small ones."""
+    cells, which = np.unique(cell_keys(designs, parts, keys), axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    r_vals = scene.values["r"]
+    cost = np.zeros(cells.shape[0], dtype=np.int64)
+    widths = np.zeros(cells.shape[0], dtype=np.int64)   # bit mask of the cell's widths
+    for c, (_, d) in zip(which, keys):
+        l1, l2, _, _, w = designs[d]
+        cost[c] += grid_points(l1, l2, w, r_vals[int(cells[c, 5])], h)
+        widths[c] |= 1 << int(d % scene.widths.size)
+    # cells with the same widths together (one kernel call for them), largest first
+    order = np.lexsort((np.arange(cells.shape[0]), -cost, widths, cells[:, 0]))
     batches, current, points = [], [], 0
-    for i in order:
-        if current and points + cost[i] > BATCH_POINTS:
-            batches.append(keys[current])
+    for c in order:
+        if current and points + cost[c] > BATCH_POINTS:
+            batches.append(current)
             current, points = [], 0
-        current.append(i)
-        points += int(cost[i])
+        current.append(c)
+        points += int(cost[c])
     if current:
-        batches.append(keys[current])
-    return batches
+        batches.append(current)
+    out = []
+    for b in batches:
+        rank = {c: i for i, c in enumerate(b)}
+        rows = [i for i in np.flatnonzero(np.isin(which, b))]
+        rows.sort(key=lambda i: (rank[which[i]], keys[i, 1], keys[i, 0]))
+        out.append(keys[rows])
+    return out
 
 
 # ---------------------------------------------------------------------------------------------
@@ -439,11 +470,11 @@ def is_refined(view, scene: Scene, settings: RefineSettings) -> bool:
 
 def refine_store(path: Path, settings: RefineSettings | None = None, threads: int | None = None,
                  progress: bool = True, restart: bool = False, wait: bool = False,
-                 locked: bool = False) -> RefineResult:
+                 locked: bool = False, force: bool = False) -> RefineResult:
     """Refine the results store `path` in place (rewritten atomically) with `settings` (default:
     the store's config's `refine:`, else RefineSettings()); resumes from `STORE.refine/`. A store
-    already refined with these settings is left alone. `locked`: the caller holds the store's
-    lock."""
+    already refined with these settings is left alone unless `force`. `locked`: the caller holds
+    the store's lock."""
     path = Path(path)
     t0 = time.perf_counter()
     lock = contextlib.nullcontext() if locked else claim_output(path, overwrite=True, wait=wait)
@@ -453,7 +484,7 @@ def refine_store(path: Path, settings: RefineSettings | None = None, threads: in
         settings = settings or scene.refine or RefineSettings()
         screening = float(view.attrs.get("compute_seconds", math.nan))
         work = refine_dir(path)
-        if is_refined(view, scene, settings):
+        if not force and is_refined(view, scene, settings):
             shutil.rmtree(work, ignore_errors=True)
             return RefineResult(path, None, time.perf_counter() - t0, screening)
         if "caging_area" not in view.variables:
