@@ -336,3 +336,109 @@ def test_bound_check_by_hand():
     assert not rf.bound_held(reps, contenders, screened, latest, 9.0 - 0.1)
     # every class contended: nothing was left out
     assert rf.bound_held(reps, reps, screened, latest, 0.0)
+
+
+def test_report_uses_the_refined_ranking(tmp_path):
+    """best_caging.csv holds each part's refined best; the Scenario A candidates are the top-k
+    of the refined ranking (the final set, then the other contenders, then the rest, each by
+    caging area at its finest level), recomputed here from the store with plain Python."""
+    import csv
+
+    cfg = yaml.safe_load((DATA / "manipulation.yaml").read_text())
+    cfg["refine"] = dict(levels=1, bound=0.5, min_contenders=2)
+    config = tmp_path / "tiny-refine.yaml"
+    config.write_text(yaml.safe_dump(cfg))
+    store = tmp_path / "s.h5"
+    assert invoke("run", config, "--out", store, "--no-progress").exit_code == 0
+    out = tmp_path / "rep"
+    res = invoke("report", store, "--out", out)
+    assert res.exit_code == 0, res.output
+    with xr.open_dataset(store, engine="h5netcdf") as ds:
+        ds = ds.load()
+    designs = designs_of(ds)
+    top_k = cfg["outputs"]["scenario_a_top_k"]
+    want, best_rows = set(), []
+    for ri, mi in parts_of(ds):
+        role = per_design(ds, "refine_role", ri, mi)
+        refined = per_design(ds, "refined_caging_area", ri, mi)
+        screened = per_design(ds, "caging_area", ri, mi)
+
+        keys = []
+        for d in range(len(designs)):
+            group = 2 if role[d] >= 2 else 1 if role[d] == 1 else 0
+            v = screened[d] if np.isnan(refined[d]) else refined[d]
+            keys.append((-group, -v, d))
+        ranked = [k[2] for k in sorted(keys)]
+        want |= {tuple(float(x) for x in designs[d][:4]) for d in ranked[:top_k]}
+        best_rows.append(designs[int(np.flatnonzero(role == 3)[0])])
+    with open(out / "scenario_a_candidates.csv", newline="") as f:
+        got = {tuple(float(row[k]) for k in ("l1", "l2", "r1", "r2")) for row in csv.DictReader(f)}
+    assert got == want
+    with open(out / "best_caging.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [tuple(float(r[k]) for k in DESIGN) for r in rows] == \
+        [tuple(float(x) for x in d) for d in best_rows]
+    assert all(r["certification"] == "certified" or r["certification"].startswith("near-tie")
+               for r in rows)
+    text = (out / "report.md").read_text()
+    assert "**Certification:**" in text and "refinement.csv" in text
+    assert (out / "refinement.csv").exists()
+
+
+def test_chunked_run_refines_through_merge_or_refine(refined, tmp_path):
+    """Chunks, then `sweep merge` (refines: the config has refine:) or `sweep merge
+    --no-refine` followed by `sweep refine`: both give the one-machine run's refinement."""
+    _, store, ds, _ = refined
+    config = write_config(tmp_path / "refine-test.yaml")
+    run_dir = tmp_path / "run"
+    for chunk in (0, 1):
+        res = invoke("run", config, "--out", run_dir, "--chunks", 2, "--chunk", chunk,
+                     "--no-progress")
+        assert res.exit_code == 0, res.output
+    merged = tmp_path / "merged.h5"
+    res = invoke("merge", run_dir, "--out", merged)
+    assert res.exit_code == 0 and "refined" in res.output, res.output
+    plain = tmp_path / "plain.h5"
+    res = invoke("merge", run_dir, "--out", plain, "--no-refine")
+    assert res.exit_code == 0 and "refined" not in res.output, res.output
+    with xr.open_dataset(plain, engine="h5netcdf") as p:
+        assert not any(f.name in p for f in REFINE_FIELDS)
+    res = invoke("refine", plain, "--no-progress")
+    assert res.exit_code == 0 and "refined" in res.output, res.output
+    for path in (merged, plain):
+        with xr.open_dataset(path, engine="h5netcdf") as m:
+            for f in REFINE_FIELDS:
+                assert np.array_equal(m[f.name].values, ds[f.name].values, equal_nan=True), \
+                    (path.name, f.name)
+
+
+def test_slurm_submit_adds_a_refine_job(tmp_path):
+    """With refine: the merge job only merges and a third job, after it, refines and reports
+    (a stand-in sbatch records each submission and answers with a job id)."""
+    import stat
+
+    config = write_config(tmp_path / "refine-test.yaml")
+    bindir = tmp_path / "bin"
+    bindir.mkdir()
+    log = tmp_path / "sbatch.log"
+    fake = bindir / "sbatch"
+    fake.write_text("#!/bin/sh\nif [ \"$1\" = --test-only ]; then cat >/dev/null; exit 0; fi\n"
+                    f"echo \"$@\" >> {log}\nn=$(wc -l < {log})\necho $((100 + n))\n")
+    fake.chmod(fake.stat().st_mode | stat.S_IXUSR)
+    import os
+
+    res = CliRunner().invoke(cli, ["slurm", str(config), "--chunks", "2", "--out",
+                                   str(tmp_path / "run"), "--submit"],
+                             env={"PATH": f"{bindir}:{os.environ['PATH']}"})
+    assert res.exit_code == 0, res.output
+    calls = log.read_text().splitlines()
+    assert len(calls) == 3
+    assert calls[1].startswith("--parsable --dependency=afterok:101 ")
+    assert calls[2].startswith("--parsable --dependency=afterok:102 ")
+    assert calls[2].endswith("sweep-refine.sbatch")
+    assert "refine job 103" in res.output
+    merge = (tmp_path / "run" / "sweep-merge.sbatch").read_text()
+    refine = (tmp_path / "run" / "sweep-refine.sbatch").read_text()
+    assert "--no-refine" in merge and " report " not in merge
+    assert " refine " in refine and " report " in refine
+    assert "#SBATCH --cpus-per-task=4" in refine
