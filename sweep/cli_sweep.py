@@ -178,8 +178,9 @@ def _run_refinement(store, settings, threads, progress, restart, wait, force=Fal
               help="Level cap: recompute at h/2 ... h/2^LEVELS [default: the config's refine:, "
                    "else 3].")
 @click.option("--bound", type=click.FloatRange(0.0, 1.0), default=None,
-              help="Contenders: designs whose screened caging area is at least (1 - BOUND) "
-                   "times the part's best [default: the config's, else 0.1].")
+              help="Cap of each part's contender bound: no design whose screened caging area "
+                   "is below (1 - BOUND) times the part's best contends [default: the config's, "
+                   "else 0.1].")
 @click.option("--min-contenders", type=click.IntRange(min=2), default=None,
               help="Floor: at least this many contending designs per part (equal-R designs "
                    "once) [default: the config's, else 3].")
@@ -194,7 +195,9 @@ def _run_refinement(store, settings, threads, progress, restart, wait, force=Fal
 @WAIT
 def refine(store, levels, bound, min_contenders, threads, progress, restart, force, wait):
     """Refine the best designs of a results store: per part and command, recompute the
-    contenders (designs whose screened caging area is near the best) at h/2, h/4, ... until the
+    contenders (the --min-contenders best designs by screened caging area, and those that
+    their change from screening to h/2 says could still be the best, capped by --bound) at
+    h/2, h/4, ... until the
     best design's lead over every other contender exceeds the change between the last two
     levels (certified), or up to the level cap (then the part has a near-tie set). Equal-R
     designs (same l1, l2, w and r2/r1) give the same map and count once.

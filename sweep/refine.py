@@ -8,9 +8,13 @@ can be the best, so only they are recomputed on finer grids. Per part (r, mu) an
    configurations depend on the pulley radii only through R; energies scale with r1, which
    changes no descent): they form one class, computed once, through its *representative*, the
    first of its designs in store order.
-2. *Contenders.* Every class whose screened caging area is at least (1 - bound) times the part's
-   best, and at least the `min_contenders` best classes (the floor). A part whose best screened
-   caging area is 0 is not refined (status `not_refined`).
+2. *Contenders*, measured in the run: first the *floor*, the `min_contenders` best classes by
+   screened caging area, is computed at h/2; D, the largest change of a floor class from its
+   screened value, says how far the screening is off for this part. Then every class whose
+   screened caging area is at least the floor's best h/2 value minus CHANGE_FACTOR x D
+   contends too, but never one below (1 - bound) times the part's best screened caging area:
+   `bound` (the config's) caps the part's bound (stored: `refine_bound_used`). A part whose best
+   screened caging area is 0 is not refined (status `not_refined`).
 3. *Levels.* The contenders still in the running are recomputed at h/2, h/4, ..., h/2**levels
    with the config's accuracy settings otherwise unchanged (trajectory method included). At
    level k a class's value is its caging area there and its *error estimate* is the change from
@@ -47,6 +51,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from . import __version__, batch
@@ -106,18 +111,42 @@ def screened_matrix(scene: Scene, caging_area: np.ndarray) -> np.ndarray:
     return np.asarray(caging_area, dtype=np.float64).reshape(n_designs, -1)
 
 
-def select_contenders(reps: np.ndarray, values: np.ndarray, settings: RefineSettings) -> np.ndarray:
+def select_contenders(reps: np.ndarray, values: np.ndarray, settings: RefineSettings,
+                      floor_only: bool = False) -> np.ndarray:
     """Representatives of the contending classes of one part (sorted, store order): every class
     whose screened value is at least (1 - bound) times the best, and the `min_contenders` best
-    (store order among equal values). Empty when the best value is not positive."""
+    (store order among equal values); with `floor_only` those best only. Empty when the best
+    value is not positive."""
     v = values[reps]
     best = float(v.max()) if v.size else 0.0
     if not best > 0.0:
         return np.zeros(0, dtype=np.int64)
     order = np.argsort(-v, kind="stable")
     keep = set(order[:settings.min_contenders].tolist())
-    keep.update(np.flatnonzero(v >= (1.0 - settings.bound) * best).tolist())
+    if not floor_only:
+        keep.update(np.flatnonzero(v >= (1.0 - settings.bound) * best).tolist())
     return np.sort(reps[sorted(keep)])
+
+
+#: Step 2: how many times the floor's largest change from screening to h/2 a class may be below
+#: the floor's best at h/2 and still contend. A method whose error at least halves per level
+#: changes a value by at most 2 D from screening to the limit (D + D/2 + ...), the best's by at
+#: most D after h/2: a class below the best's h/2 value by more than 3 D cannot overtake it.
+CHANGE_FACTOR = 3.0
+
+
+def contender_cut(best0: float, now: np.ndarray, screened: np.ndarray, bound: float) -> float:
+    """The screened caging area a class needs to contend in one part: the floor's best value at
+    h/2 minus CHANGE_FACTOR times the floor's largest change from screening (`now` and
+    `screened`: the floor's values), but never below (1 - bound) times the screened best."""
+    change = float(np.max(np.abs(now - screened)))
+    return max((1.0 - bound) * best0, float(np.max(now)) - CHANGE_FACTOR * change)
+
+
+def _keys(classes, parts) -> np.ndarray:
+    """(part, representative) of every class of `classes[p]` for p in parts: int64 (n, 2)."""
+    return np.array([(p, int(d)) for p in parts for d in classes[p]],
+                    dtype=np.int64).reshape(-1, 2)
 
 
 def separate(now: np.ndarray, previous: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
@@ -169,8 +198,29 @@ def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.
     groups: dict = {}
     for c in range(cells.shape[0]):
         groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
+    # A call with fewer cells than threads leaves threads idle: the small groups of a command
+    # run as one call at the union of their widths (an extra width costs a map's outcomes,
+    # far less than its finger field).
+    threads = numba.get_num_threads()
+    merged: dict = {}
+    for (ci, ws), rows in list(groups.items()):
+        if len(rows) < 2 * threads:
+            del groups[(ci, ws)]
+            union, members = merged.get(ci, (set(), []))
+            merged[ci] = (union | set(ws), members + rows)
+    for ci, (union, rows) in merged.items():
+        groups.setdefault((ci, tuple(sorted(union))), []).extend(sorted(rows))
     r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
+    calls = []
     for (ci, ws), rows in groups.items():
+        # Numba's OpenMP layer gives each thread one contiguous block of a prange's cells (no
+        # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
+        # of `threads` cells of similar cost, largest first, keep every thread busy.
+        cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
+                                r_vals[int(cells[c, 5])], h) for wi in ws) for c in rows]
+        rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
+        calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
+    for ci, ws, rows in calls:
         c = cells[rows]
         res = batch.summarize_cells(
             np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
@@ -188,8 +238,7 @@ def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np
                   h: float) -> list[np.ndarray]:
     """A level's maps in a fixed order, cut into batches of whole cells (all their maps of the
     level) of at most BATCH_POINTS grid points (at least one cell each). Cells with the same
-    widths are consecutive (`compute_maps` makes one kernel call of them), largest first, so
-    that the threads, which take cells one by one, end on small ones."""
+    widths are consecutive (`compute_maps` makes one kernel call of them), largest first."""
     cells, which = np.unique(cell_keys(designs, parts, keys), axis=0, return_inverse=True)
     which = which.reshape(-1)
     r_vals = scene.values["r"]
@@ -229,8 +278,8 @@ def refine_identity(scene: Scene, settings: RefineSettings) -> dict:
                 refine=settings.as_dict())
 
 
-def batch_path(work: Path, level: int, index: int) -> Path:
-    return work / f"level-{level}-batch-{index:05d}.npz"
+def batch_path(work: Path, label: str, index: int) -> Path:
+    return work / f"level-{label}-batch-{index:05d}.npz"
 
 
 def _save_batch(path: Path, keys: np.ndarray, values: np.ndarray, seconds: float) -> None:
@@ -289,6 +338,7 @@ class Refinement:
     margin: np.ndarray                  # (n_parts,) lead of the best at the finest level
     n_contenders: np.ndarray            # (n_parts,) int32: contending designs (all class members)
     bound_held: np.ndarray              # (n_parts,) bool: the bound check (module docstring)
+    bound_used: np.ndarray              # (n_parts,) the part's contender bound (step 2)
     level_maps: list = field(default_factory=list)      # maps computed per level (1..)
     level_seconds: list = field(default_factory=list)   # compute seconds per level
     computed_maps: int = 0              # maps computed by this invocation
@@ -317,7 +367,6 @@ def refine_scene(scene: Scene, screened: np.ndarray, settings: RefineSettings, w
                           f"designs and {parts.shape[0]} parts")
     prepare_work_dir(work, refine_identity(scene, settings))
     class_reps = np.unique(reps)
-    alive: list[np.ndarray] = []
     status = np.zeros(n_parts, dtype=np.int8)
     finest = np.zeros(n_parts, dtype=np.int8)
     margin = np.full(n_parts, np.nan)
@@ -327,27 +376,48 @@ def refine_scene(scene: Scene, screened: np.ndarray, settings: RefineSettings, w
     error = np.full((n_designs, n_parts), np.nan)
     role = np.full((n_designs, n_parts), ROLE["screened"], dtype=np.int8)
     latest = screened.copy()               # per representative: value at its latest level
+    bound_used = np.full(n_parts, np.nan)
+    out = Refinement(settings, scene.h, reps, value, level, error, role, status, finest, margin,
+                     n_contenders, np.zeros(n_parts, dtype=bool), bound_used)
+    # Level 1 in two passes (step 2 of the module docstring): the floor, then the classes its
+    # changes call for.
+    h1 = settings.level_h(scene.h, 1)
+    floor = [select_contenders(class_reps, screened[:, p], settings, floor_only=True)
+             for p in range(n_parts)]
+    got, seconds, computed = _run_level(scene, designs, parts, _keys(floor, range(n_parts)), h1,
+                                        "1a", work, progress)
+    alive = []
     for p in range(n_parts):
-        c = select_contenders(class_reps, screened[:, p], settings)
+        c = floor[p]
+        if c.size:
+            best0 = float(screened[c, p].max())
+            now = np.array([got[(p, int(d))] for d in c])
+            cut = contender_cut(best0, now, screened[c, p], settings.bound)
+            bound_used[p] = 1.0 - cut / best0
+            c = np.union1d(c, class_reps[screened[class_reps, p] >= cut])
         alive.append(c)
         n_contenders[p] = int(np.isin(reps, c).sum())
         role[np.isin(reps, c), p] = ROLE["eliminated"]
         status[p] = STATUS["near_tie"] if c.size else STATUS["not_refined"]
-    active = [p for p in range(n_parts) if alive[p].size]
+    rest = [np.setdiff1d(alive[p], floor[p]) for p in range(n_parts)]
+    got_b, seconds_b, computed_b = _run_level(scene, designs, parts, _keys(rest, range(n_parts)),
+                                              h1, "1b", work, progress)
+    got.update(got_b)
     contenders = [c.copy() for c in alive]
-    out = Refinement(settings, scene.h, reps, value, level, error, role, status, finest, margin,
-                     n_contenders, np.zeros(n_parts, dtype=bool))
+    active = [p for p in range(n_parts) if alive[p].size]
     for k in range(1, settings.levels + 1):
         if not active:
             break
-        h = settings.level_h(scene.h, k)
-        keys = np.array([(p, d) for p in active for d in alive[p]], dtype=np.int64).reshape(-1, 2)
-        values, seconds, computed = _run_level(scene, designs, parts, keys, h, k, work,
-                                               progress)
+        keys = _keys(alive, active)
+        if k > 1:
+            got, seconds, computed = _run_level(scene, designs, parts, keys,
+                                                settings.level_h(scene.h, k), str(k), work,
+                                                progress)
+        else:
+            seconds, computed = seconds + seconds_b, computed + computed_b
         out.level_maps.append(int(keys.shape[0]))
         out.level_seconds.append(seconds)
         out.computed_maps += computed
-        got = {(int(p), int(d)): v for (p, d), v in zip(keys, values)}
         still = []
         for p in active:
             c = alive[p]
@@ -391,42 +461,39 @@ def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
     return bool(best_low > float(np.max(screened[out])) + drift)
 
 
-def _run_level(scene, designs, parts, keys, h, k, work, progress):
-    """The maps `keys` of level k: finished batches loaded, the rest computed and saved.
-    Returns (values in the order of keys, compute seconds of every batch, maps computed now)."""
-    import numba
-
+def _run_level(scene, designs, parts, keys, h, label, work, progress):
+    """The maps `keys` of a level (`label`: "1a", "1b", "2", ...): finished batches loaded, the
+    rest computed and saved. Returns ({(part, design): caging area}, compute seconds of every
+    batch, maps computed now)."""
+    if not keys.shape[0]:
+        return {}, 0.0, 0
     batches = level_batches(scene, designs, parts, keys, h)
-    index = {(int(p), int(d)): i for i, (p, d) in enumerate(keys)}
-    values = np.empty(keys.shape[0])
+    got: dict = {}
     seconds, computed = 0.0, 0
     todo = []
     for b, bk in enumerate(batches):
-        found = _load_batch(batch_path(work, k, b), bk)
+        found = _load_batch(batch_path(work, label, b), bk)
         if found is None:
             todo.append(b)
             continue
-        values[[index[(int(p), int(d))] for p, d in bk]] = found[0]
+        got.update(zip(map(tuple, bk.tolist()), found[0].tolist()))
         seconds += found[1]
     bar = _progress(len(keys), len(keys) - sum(len(batches[b]) for b in todo),
                     f"refine h={h:g}", progress)
-    old_chunk = numba.get_parallel_chunksize()
-    numba.set_parallel_chunksize(1)   # maps of very different sizes: threads take them one by one
     try:
         for b in todo:
             bk = batches[b]
             t = time.perf_counter()
             v = compute_maps(scene, designs, parts, bk, h)
             dt = time.perf_counter() - t
-            _save_batch(batch_path(work, k, b), bk, v, dt)
-            values[[index[(int(p), int(d))] for p, d in bk]] = v
+            _save_batch(batch_path(work, label, b), bk, v, dt)
+            got.update(zip(map(tuple, bk.tolist()), v.tolist()))
             seconds += dt
             computed += len(bk)
             bar.update(len(bk))
     finally:
-        numba.set_parallel_chunksize(old_chunk)
         bar.close()
-    return values, seconds, computed
+    return got, seconds, computed
 
 
 def _progress(total: int, initial: int, desc: str, enabled: bool):

@@ -872,9 +872,10 @@ def markdown(st: StoreData, rep: Report) -> str:
         counts = json.loads(a["refine_counts"]) if isinstance(a.get("refine_counts"), str) \
             else a.get("refine_counts", {})
         L.append(f"- Refinement: up to {a.get('refine_levels')} levels (h down to "
-                 f"{fmt(sc.h / 2 ** int(a.get('refine_levels', 0)))}), contender bound "
-                 f"{fmt(a.get('refine_bound'))} of the best screened caging area, at least "
-                 f"{a.get('refine_min_contenders')} contenders; {counts.get('certified', 0)} "
+                 f"{fmt(sc.h / 2 ** int(a.get('refine_levels', 0)))}), contender bound per "
+                 f"part at most {fmt(a.get('refine_bound'))} of the best screened caging area, "
+                 f"at least {a.get('refine_min_contenders')} contenders; "
+                 f"{counts.get('certified', 0)} "
                  f"parts certified, {counts.get('near_tie', 0)} near-tie sets, "
                  f"{counts.get('not_refined', 0)} not refined; compute "
                  f"{fmt(a.get('refine_compute_seconds', math.nan))} s "
@@ -883,9 +884,10 @@ def markdown(st: StoreData, rep: Report) -> str:
     L += ["", "## Rules", ""]
     if st.refined:
         L += ["- Best caging design of a part (refined store): the screening ranks every design "
-              "by its caging area at h; the contenders (designs whose screened caging area is at "
-              "least 1 - bound times the part's best, at least min_contenders of them; equal-R "
-              "designs, same l1, l2, w and R, give the same map and count once, `tied`) are "
+              "by its caging area at h; the contenders (the min_contenders best, and every "
+              "design the change of those from h to h/2 says could still be the best, at most "
+              "those within the bound of the part's best; equal-R designs, same l1, l2, w and "
+              "R, give the same map and count once, `tied`) are "
               "recomputed at h/2, h/4, ..., and a contender leaves the running once its value "
               "plus its error estimate (its change from the level before) falls below the best's "
               "value minus the best's error estimate. **Certification:** a part is certified "

@@ -92,12 +92,12 @@ class SceneError(ModelInputError):
 
 @dataclass(frozen=True)
 class RefineSettings:
-    """The refinement stage (`refine:` in a config; docs/sweeps.md, "Refinement"): after the
-    screening sweep at `h`, per part and command, the contenders (every design whose screened
-    caging area is at least (1 - bound) times the part's best, and at least the `min_contenders`
-    best, equal-R designs counted once) are recomputed at h/2, h/4, ... h/2**levels until the
-    best is certified. The defaults are configs/paper.yaml's (the bound measured by
-    scripts/refine_bound.py)."""
+    """The refinement stage (`refine:` in a config; docs/sweeps.md, "Refinement";
+    `sweep.refine`): after the screening sweep at `h`, per part and command, the contenders
+    (the `min_contenders` best designs, and those their own coarse-versus-fine change calls
+    for, never below (1 - bound) times the part's best screened caging area; equal-R designs
+    counted once) are recomputed at h/2, h/4, ... h/2**levels until the best is certified.
+    The defaults are what `refine: true` means; configs/paper.yaml states its own."""
 
     levels: int = 3
     bound: float = 0.1

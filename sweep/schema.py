@@ -228,6 +228,11 @@ REFINE_FIELDS = (
           "every non-contender's screened caging area plus the largest change of a contender "
           "from screening to its finest level (else a design left out by the bound could be "
           "the best)", "1", "refine"),
+    Field("refine_bound_used", "float64", PART_DIMS,
+          "the part's contender bound: contenders had a screened caging area of at least "
+          "(1 - this) times the part's best (3 times the largest change of its min_contenders "
+          "best designs from screening to h/2, at most refine_bound); NaN if not refined", "1",
+          "refine"),
     Field("refine_n_contenders", "int32", PART_DIMS,
           "designs recomputed at the first refinement level (equal-R designs counted each)",
           "1", "refine"),

@@ -287,7 +287,7 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
     arrays = dict(refined_caging_area=ref.value, refined_level=ref.level,
                   refined_error=ref.error, refine_role=ref.role, refine_status=ref.status,
                   refine_finest_h=ref.finest_h(), refine_margin=ref.margin,
-                  refine_bound_held=ref.bound_held,
+                  refine_bound_held=ref.bound_held, refine_bound_used=ref.bound_used,
                   refine_n_contenders=ref.n_contenders)
     with atomic_amend(path) as f:
         for fld in REFINE_FIELDS:
@@ -305,11 +305,12 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
             refine_level_maps=list(ref.level_maps),
             refine_level_seconds=[float(x) for x in ref.level_seconds],
             refine_counts=ref.counts(), refine_created_utc=provenance()["created_utc"],
-            refine_note="contenders: designs whose screened caging area is at least (1 - "
-                        "refine_bound) times the part's best, and the refine_min_contenders best "
-                        "(equal-R designs, same l1, l2, w and r2/r1, count once); recomputed at "
-                        "refine_level_h until the best's lead over every other contender exceeds "
-                        "the change between the last two levels of both (docs/sweeps.md)",
+            refine_note="contenders: the refine_min_contenders best designs and those whose "
+                        "screened caging area is at least (1 - refine_bound_used) times the "
+                        "part's best (equal-R designs, same l1, l2, w and r2/r1, count once); "
+                        "recomputed at refine_level_h until the best's lead over every other "
+                        "contender exceeds the change between the last two levels of both "
+                        "(docs/sweeps.md)",
             **attrs))
 
 

@@ -442,3 +442,28 @@ def test_slurm_submit_adds_a_refine_job(tmp_path):
     assert "--no-refine" in merge and " report " not in merge
     assert " refine " in refine and " report " in refine
     assert "#SBATCH --cpus-per-task=4" in refine
+
+
+def test_contender_cut_by_hand():
+    # floor screened 10, 9.8, 9.5 -> at h/2 9.6, 9.7, 9.0: largest change 0.5, best 9.7:
+    # cut 9.7 - 3 x 0.5 = 8.2, above the cap (1 - 0.4) x 10 = 6
+    assert rf.contender_cut(10.0, np.array([9.6, 9.7, 9.0]), np.array([10.0, 9.8, 9.5]),
+                            0.4) == pytest.approx(8.2)
+    # large changes: the cap decides
+    assert rf.contender_cut(10.0, np.array([5.0, 6.0]), np.array([10.0, 9.0]), 0.4) == \
+        pytest.approx(6.0)
+
+
+def test_store_records_the_bound_each_part_used(refined):
+    """Every contender's screened value reaches the part's stored cut; no other design does,
+    apart from the floor (the min_contenders best)."""
+    _, _, ds, _ = refined
+    for ri, mi in parts_of(ds):
+        used = float(ds["refine_bound_used"].isel(r=ri, mu=mi))
+        assert 0.0 <= used <= CONFIG["refine"]["bound"] + 1e-12
+        screened = per_design(ds, "caging_area", ri, mi)
+        contending = per_design(ds, "refined_level", ri, mi) > 0
+        cut = (1.0 - used) * screened.max()
+        assert np.all(contending[screened >= cut * (1 + 1e-12)])
+        floor = np.sort(np.unique(screened))[::-1][CONFIG["refine"]["min_contenders"] - 1]
+        assert np.all(screened[contending] >= min(cut, floor) * (1 - 1e-12))
