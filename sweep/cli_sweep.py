@@ -46,6 +46,8 @@ FILE = click.Path(dir_okay=False, path_type=Path)
 WAIT = click.option("--wait", is_flag=True,
                     help="If another sweep is writing the same output, wait for it instead of "
                          "stopping at once.")
+THREADS = click.option("--threads", type=int, default=None,
+                       help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -57,8 +59,7 @@ WAIT = click.option("--wait", is_flag=True,
               help="Which chunk to compute, 0..N-1 (default: from the array job's environment).")
 @click.option("--chunks", type=int, default=None,
               help="Split the sweep into N chunks and compute one (cluster runs).")
-@click.option("--threads", type=int, default=None,
-              help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
+@THREADS
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress bar on stderr (maps done, maps/s, ETA).")
 @click.option("--restart", is_flag=True,
@@ -184,8 +185,7 @@ def _run_refinement(store, settings, threads, progress, restart, wait, force=Fal
 @click.option("--min-contenders", type=click.IntRange(min=2), default=None,
               help="Floor: at least this many contending designs per part (equal-R designs "
                    "once) [default: the config's, else 3].")
-@click.option("--threads", type=int, default=None,
-              help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
+@THREADS
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress bar on stderr, one per level.")
 @click.option("--restart", is_flag=True,
@@ -605,6 +605,8 @@ def show(results):
     """Print what a results store holds: dimensions, variables, config, effects, grid,
     provenance and timings. Shard and part files, and single maps (`sweep map`,
     outputs.save_maps), get a short description."""
+    import numpy as np
+
     from .store import CorruptFile, StoreError, read_block, read_store
 
     try:
@@ -650,6 +652,12 @@ def show(results):
               f"wall {a['wall_seconds']:.1f} s" if "wall_seconds" in a else "",
               f"{a['maps_per_second']:,.0f} maps/s" if "maps_per_second" in a else ""]
     click.echo("  timings: " + ", ".join(t for t in timing if t))
+    if view.refine:
+        click.echo(f"  refinement: {a.get('refine_counts')}; levels h = "
+                   f"{', '.join(f'{x:g}' for x in np.atleast_1d(a.get('refine_level_h', [])))}; "
+                   f"cap bound {a.get('refine_bound')}, at least {a.get('refine_min_contenders')} "
+                   f"contenders; {a.get('refine_compute_seconds', float('nan')):.1f} s of compute "
+                   f"(variables: {', '.join(view.refine)})")
     if "saved_maps" in a:
         import json
 

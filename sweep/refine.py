@@ -68,7 +68,8 @@ STATUS = {name: code for code, name in enumerate(REFINE_STATUS_MEANINGS)}
 #: Significant digits of R = r2/r1 that decide equal-R classes (0.02/0.06 is 0.33333333333333337
 #: in floating point, 0.06/0.18 is 0.3333333333333333).
 R_DIGITS = 12
-#: Grid points per work file: about a second of compute on two cores, so a kill loses little.
+#: Grid points per work file (the maps of a level, whole cells): a few seconds of compute on two
+#: cores, so a kill loses little.
 BATCH_POINTS = 10_000_000
 WORK_MANIFEST = "manifest.json"
 

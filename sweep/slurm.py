@@ -33,17 +33,8 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
     if n_chunks < 1:
         raise ValueError(f"n_chunks must be >= 1, got {n_chunks}")
     array = f"0-{n_chunks - 1}" + (f"%{parallel}" if parallel else "")
-    flags = {
-        "array": array,
-        "cpus-per-task": str(cpus_per_task),
-        "error": f"{out_dir}/logs/%A_%a.err",
-        "job-name": job_name,
-        "ntasks": "1",
-        "output": f"{out_dir}/logs/%A_%a.out",
-        "time": time,
-    }
-    if mem:
-        flags["mem"] = mem
+    flags = _job_flags(out_dir, "%A_%a", job_name, cpus_per_task, time, mem)
+    flags["array"] = array
     lines = _header(flags, partition, account, extra)
     lines.append("")
     about = f"# {n_chunks} chunks" + (f" of a {n_maps:,}-map sweep" if n_maps else "")
@@ -62,6 +53,22 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
         "",
     ]
     return "\n".join(lines)
+
+
+def _job_flags(out_dir: str, log_stem: str, job_name: str, cpus_per_task: int, time: str,
+               mem: str | None) -> dict:
+    """The #SBATCH flags every job of a run has (logs DIR/logs/STEM.out and .err)."""
+    flags = {
+        "cpus-per-task": str(cpus_per_task),
+        "error": f"{out_dir}/logs/{log_stem}.err",
+        "job-name": job_name,
+        "ntasks": "1",
+        "output": f"{out_dir}/logs/{log_stem}.out",
+        "time": time,
+    }
+    if mem:
+        flags["mem"] = mem
+    return flags
 
 
 def _header(flags: dict, partition: str | None, account: str | None,
@@ -133,16 +140,7 @@ def refine_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str =
     """Text of the sbatch script that refines the merged store `results` (`sweep refine`: the
     contenders' maps on finer grids, threads = the task's cores; resumes if rerun) and writes
     its report. Submitted with ``--dependency=afterok:<merge job id>``."""
-    flags = {
-        "cpus-per-task": str(cpus_per_task),
-        "error": f"{out_dir}/logs/refine_%j.err",
-        "job-name": job_name,
-        "ntasks": "1",
-        "output": f"{out_dir}/logs/refine_%j.out",
-        "time": time,
-    }
-    if mem:
-        flags["mem"] = mem
+    flags = _job_flags(out_dir, "refine_%j", job_name, cpus_per_task, time, mem)
     lines = _header(flags, partition, account, extra)
     lines += [
         "",
