@@ -1,5 +1,5 @@
 """Measure what the refinement stage's contender bound must be, and what each bound costs
-(docs/sweeps.md, "Refinement"; model-notes D16). Rerun it whenever the trajectory method or the
+(docs/sweeps.md, "Refinement"; model-notes D17). Rerun it whenever the trajectory method or the
 screening spacing changes: the figures hold for the method they were measured with.
 
     .venv/bin/sweep run configs/paper-caging.yaml --out results/paper-caging.h5

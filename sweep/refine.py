@@ -1,5 +1,5 @@
 """The refinement stage: best designs that the grid cannot change (docs/sweeps.md, "Refinement";
-model-notes D16).
+model-notes D17).
 
 The screening sweep ranks every design at the config's spacing `h`; only a few designs per part
 can be the best, so only they are recomputed on finer grids. Per part (r, mu) and command:

@@ -4,7 +4,7 @@ The brute force is a full sweep of every design at every refinement level, compu
 `batch.summarize_cells` over whole cells (all widths at once, the screening's own grouping),
 not through sweep.refine's map lists. The refined best design of every part must equal the
 best design of the full sweep at the finest level, and a part that is not certified must have
-that design in its near-tie set (model-notes D16).
+that design in its near-tie set (model-notes D17).
 """
 from __future__ import annotations
 
@@ -105,7 +105,7 @@ def parts_of(ds):
 
 
 def check_against_brute_force(scene, ds, levels) -> list[str]:
-    """D16: a certified part's best is the finest full sweep's best (and the best at the level
+    """D17: a certified part's best is the finest full sweep's best (and the best at the level
     where it was certified); a near-tie set contains the finest full sweep's best."""
     finest = levels[LEVELS]
     designs = designs_of(ds)
