@@ -29,9 +29,10 @@ DESIGN = ("l1", "l2", "r1", "r2", "w")
 TIE_REL = 1e-9
 
 #: A small sweep with an equal-R pair (r2/r1 = 0.04/0.08 = 0.08/0.16) and R = 1, six parts.
-#: Friction 0.7 and 1: at low friction the trajectory methods of today do not converge as h
-#: halves (MODEL 8, "Creases": caging areas collapse between two levels), which no estimate
-#: from earlier levels can foresee; that case is `test_low_friction_after_p10` below.
+#: Friction 0.7 and 1: at low friction the base model's caging areas do not converge on these
+#: grids (MODEL 8, "Creases": they collapse between two levels), which no estimate from earlier
+#: levels can foresee; low friction is tested with tip_contact, and the base model's case is the
+#: strict xfail `test_low_friction_base_model` below.
 CONFIG = dict(
     name="refine-test",
     designs=dict(l1=[1.2, 2.0], l2=[0.8, 1.6], r1=[0.08, 0.16], r2=[0.04, 0.08, 0.14],
@@ -142,11 +143,22 @@ def test_refined_best_equals_the_full_sweep_at_the_finest_level(refined):
     assert "certified" in statuses and "near_tie" in statuses, statuses
 
 
-@pytest.mark.xfail(strict=True, reason="MODEL 8 Creases: at mu = 0.1 today's trajectory "
-                   "methods stall more as h halves and caging areas collapse between levels "
-                   "(a design certified at h/4 loses at h/8); P10's crease-following method "
-                   "should make this pass: then remove this mark")
-def test_low_friction_after_p10(tmp_path):
+def test_low_friction_with_tip_contact(tmp_path):
+    """mu = 0.1 where the model has no vertex walls (tip_contact, D15): the values converge and
+    the refined answer is the finest full sweep's."""
+    designs = {**CONFIG["designs"], "l1": [2.0], "l2": [1.2, 1.6]}   # the tip path is slow
+    scene, _, ds, levels = run_and_sweep(tmp_path, parts=dict(r=[0.4, 0.8], mu=[0.1]),
+                                         effects=dict(tip_contact=True), designs=designs)
+    check_against_brute_force(scene, ds, levels)
+
+
+@pytest.mark.xfail(strict=True, reason="MODEL 8 Creases: at mu = 0.1 the base model's VERTEX "
+                   "walls are narrower than these grids (h = 0.2 to 0.025) and are resolved only "
+                   "from about h = 0.0125 (main's model-notes D16, the sliding trajectories), so "
+                   "caging areas collapse between levels with any trajectory rule (a design "
+                   "certified at h/4 loses at h/8); no estimate from earlier levels can foresee "
+                   "that. Remove this mark if it passes")
+def test_low_friction_base_model(tmp_path):
     scene, _, ds, levels = run_and_sweep(tmp_path, parts=dict(r=[0.4, 0.8], mu=[0.1]))
     check_against_brute_force(scene, ds, levels)
 
