@@ -46,6 +46,8 @@ FILE = click.Path(dir_okay=False, path_type=Path)
 WAIT = click.option("--wait", is_flag=True,
                     help="If another sweep is writing the same output, wait for it instead of "
                          "stopping at once.")
+THREADS = click.option("--threads", type=int, default=None,
+                       help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -57,8 +59,7 @@ WAIT = click.option("--wait", is_flag=True,
               help="Which chunk to compute, 0..N-1 (default: from the array job's environment).")
 @click.option("--chunks", type=int, default=None,
               help="Split the sweep into N chunks and compute one (cluster runs).")
-@click.option("--threads", type=int, default=None,
-              help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")
+@THREADS
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Progress bar on stderr (maps done, maps/s, ETA).")
 @click.option("--restart", is_flag=True,
@@ -133,10 +134,104 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
     if res.already_done:
         click.echo(f"{res.path} is already complete ({res.n_maps:,} maps, config "
                    f"{scene.config_hash[:12]}); nothing to do")
+    else:
+        rate = res.n_maps / res.compute_seconds if res.compute_seconds > 0 else float("nan")
+        click.echo(f"wrote {res.path}: {res.n_maps:,} maps ({res.computed_maps:,} computed now) "
+                   f"in {res.wall_seconds:.1f} s; {rate:,.0f} maps/s of compute")
+    if chunks is None and scene.refine is not None:
+        _run_refinement(out, scene.refine, threads, progress, restart, wait)
+
+
+def _run_refinement(store, settings, threads, progress, restart, wait, force=False):
+    """The refinement stage of a store (`sweep run`, `sweep merge`, `sweep refine`), with the
+    CLI's messages."""
+    from .refine import refine_store
+    from .rundir import refine_dir
+
+    try:
+        res = refine_store(store, settings, threads=threads, progress=progress,
+                           restart=restart, wait=wait, force=force)
+    except KeyboardInterrupt as exc:
+        where = refine_dir(store)
+        hint = (f"finished refinement batches are kept in {where}; rerun the same command to "
+                "resume" if where.exists() else "")
+        click.echo(interrupted_message(exc, hint), err=True)
+        sys.exit(EXIT_INTERRUPTED)
+    if res.already_done:
+        click.echo(f"{store} is already refined; nothing to do")
         return
-    rate = res.n_maps / res.compute_seconds if res.compute_seconds > 0 else float("nan")
-    click.echo(f"wrote {res.path}: {res.n_maps:,} maps ({res.computed_maps:,} computed now) in "
-               f"{res.wall_seconds:.1f} s; {rate:,.0f} maps/s of compute")
+    ref = res.refinement
+    counts = ref.counts()
+    levels = ", ".join(f"{n:,} at h = {ref.settings.level_h(ref.h, k + 1):g}"
+                       for k, n in enumerate(ref.level_maps))
+    frac = ref.seconds / res.screening_seconds if res.screening_seconds > 0 else float("nan")
+    click.echo(f"refined {store}: {counts['certified']} parts certified, {counts['near_tie']} "
+               f"near-tie sets" + (f", {counts['not_refined']} not refined (no design cages)"
+                                   if counts["not_refined"] else "")
+               + f"; maps {levels or 'none'}; {ref.seconds:.1f} s of compute, {frac:.0%} of the "
+               f"screening's {res.screening_seconds:.1f} s ({res.wall_seconds:.1f} s wall)")
+
+
+@click.command("refine", cls=SweepCommand,
+               short_help="Refine a store's best designs on finer grids and certify them.")
+@click.argument("store", type=FILE)
+@click.option("--levels", type=click.IntRange(min=1), default=None,
+              help="Level cap: recompute at h/2 ... h/2^LEVELS [default: the config's refine:, "
+                   "else 3].")
+@click.option("--bound", type=click.FloatRange(0.0, 1.0), default=None,
+              help="Cap of each part's contender bound: no design whose screened caging area "
+                   "is below (1 - BOUND) times the part's best contends [default: the config's, "
+                   "else 0.1].")
+@click.option("--min-contenders", type=click.IntRange(min=2), default=None,
+              help="Floor: at least this many contending designs per part (equal-R designs "
+                   "once) [default: the config's, else 3].")
+@THREADS
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Progress bar on stderr, one per level.")
+@click.option("--restart", is_flag=True,
+              help="Discard finished batches of an earlier refinement instead of resuming.")
+@click.option("--force", is_flag=True,
+              help="Refine again even if the store is refined with these settings (timing).")
+@WAIT
+def refine(store, levels, bound, min_contenders, threads, progress, restart, force, wait):
+    """Refine the best designs of a results store: per part and command, recompute the
+    contenders (the --min-contenders best designs by screened caging area, and those that
+    their change from screening to h/2 says could still be the best, capped by --bound) at
+    h/2, h/4, ... until the
+    best design's lead over every other contender exceeds the change between the last two
+    levels (certified), or up to the level cap (then the part has a near-tie set). Equal-R
+    designs (same l1, l2, w and r2/r1) give the same map and count once.
+
+    \b
+    sweep refine results/paper.h5
+    sweep refine runs/paper/results.h5 --levels 4
+
+    The refined values, levels and certification are added to STORE (rewritten atomically; the
+    screened values stay). Resumable: finished batches of maps are kept in STORE.refine/ and a
+    rerun computes only the rest, with identical results. `sweep run` does this itself when the
+    config has `refine:`, `sweep merge` too unless --no-refine. A store already refined with the
+    same settings is left alone.
+    """
+    import dataclasses
+
+    from . import runner
+    from .scene import RefineSettings
+    from .store import read_store, scene_from_frozen
+
+    threads = runner.resolve_threads(threads)
+    scene = scene_from_frozen(read_store(store).frozen)
+    settings = scene.refine or RefineSettings()
+    changes = {k: v for k, v in (("levels", levels), ("bound", bound),
+                                 ("min_contenders", min_contenders)) if v is not None}
+    settings = dataclasses.replace(settings, **changes)
+    if changes:
+        from .scene import SceneError, refine_settings
+
+        try:
+            refine_settings(settings.as_dict(), scene.values, scene.h)
+        except SceneError as exc:
+            raise UserError(str(exc).replace("refine.", "--").replace("_", "-")) from None
+    _run_refinement(store, settings, threads, progress, restart, wait, force)
 
 
 @click.command("slurm", cls=SweepCommand,
@@ -178,7 +273,9 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     submits the array and a merge job that runs once every task succeeded
     (--dependency=afterok), writing --results (default DIR/results.h5); prints both job ids.
     The scripts are kept as DIR/sweep-array.sbatch and DIR/sweep-merge.sbatch; resubmit a
-    failed task I with `sbatch --array=I DIR/sweep-array.sbatch` (it resumes its shard).
+    failed task I with `sbatch --array=I DIR/sweep-array.sbatch` (it resumes its shard). When
+    the config has `refine:`, a third job (DIR/sweep-refine.sbatch, --dependency=afterok on the
+    merge, --cpus-per-task cores) refines the merged store and writes its report.
 
     Creates DIR and DIR/logs (Slurm does not create log directories) and writes the frozen config
     and chunk plan to DIR/sweep-manifest.json, so every task checks it runs the same sweep.
@@ -233,21 +330,32 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     if not submit:
         click.echo(text, nl=False)
         return
+    refine_text = None
+    if scene.refine is not None:
+        refine_text = slurm.refine_script(
+            out_dir=str(rundir.root), results=str(results), job_name=f"{job_name}-refine",
+            sweep_cmd=sweep_cmd, cpus_per_task=cpus_per_task, time=time_limit, mem=mem,
+            partition=partition, account=account, extra=extra)
     _submit_array_and_merge(rundir, text, slurm.merge_script(
         out_dir=str(rundir.root), results=str(results), job_name=f"{job_name}-merge",
         sweep_cmd=sweep_cmd, time=time_limit, partition=partition, account=account,
-        extra=extra), results, chunks, sbatch)
+        extra=extra, refine=refine_text is not None), results, chunks, sbatch, refine_text)
 
 
-def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sbatch):
-    """Write both scripts into the run directory (kept for resubmitting a task), submit the
-    array, then the merge job depending on it; print the job ids."""
+def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sbatch,
+                            refine_text=None):
+    """Write the scripts into the run directory (kept for resubmitting a task), submit the
+    array, then the merge job depending on it, then (with `refine_text`, a config with
+    `refine:`) the refine job depending on the merge; print the job ids."""
     from . import slurm
 
     array_path = rundir.root / "sweep-array.sbatch"
     merge_path = rundir.root / "sweep-merge.sbatch"
+    refine_path = rundir.root / "sweep-refine.sbatch"
     slurm.write_script(array_path, array_text)
     slurm.write_script(merge_path, merge_text)
+    if refine_text is not None:
+        slurm.write_script(refine_path, refine_text)
     try:
         array_id = slurm.submit(array_path, sbatch=sbatch)
     except slurm.SubmitError as exc:
@@ -260,6 +368,16 @@ def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sba
                         f"not ({exc}); merge by hand with `sweep merge "
                         f"{rundir.root} --out {results}` once it is done") from None
     click.echo(f"merge job {merge_id}: after every task of {array_id} succeeds, writes {results}")
+    if refine_text is not None:
+        try:
+            refine_id = slurm.submit(refine_path, [f"--dependency=afterok:{merge_id}"],
+                                     sbatch=sbatch)
+        except slurm.SubmitError as exc:
+            raise UserError(f"the array and merge jobs are submitted but the refine job is "
+                            f"not ({exc}); once the merge is done run `sweep refine {results}` "
+                            f"or `sbatch {refine_path}`") from None
+        click.echo(f"refine job {refine_id}: after the merge, refines {results} and writes its "
+                   "report")
     click.echo(f"resubmit a failed task I with: sbatch --array=I {array_path}")
 
 
@@ -294,18 +412,28 @@ def status(directory):
 @click.argument("directory", type=PATH)
 @click.option("--out", type=FILE, required=True, help="Results store (.h5) to write.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+@click.option("--refine/--no-refine", "do_refine", default=True, show_default=True,
+              help="When the config has `refine:`, refine the merged store (as `sweep refine`).")
+@click.option("--threads", type=int, default=None,
+              help="Numba threads of the refinement (default: SLURM_CPUS_PER_TASK, else every "
+                   "core).")
 @WAIT
-def merge(directory, out, overwrite, wait):
-    """Merge the shards of a chunked run directory into one results store.
+def merge(directory, out, overwrite, do_refine, threads, wait):
+    """Merge the shards of a chunked run directory into one results store; then, when the
+    config has `refine:` (and not --no-refine), refine it as `sweep refine` does.
 
     Refuses (exit code 2, nothing written) when a shard is missing, corrupt, duplicated, or from
     a different config, chunking or sweep version.
     """
+    from . import runner
     from .rundir import merge_shards
 
+    threads = runner.resolve_threads(threads)
     scene, st = merge_shards(directory, out, overwrite=overwrite, wait=wait)
     click.echo(f"wrote {out}: {scene.n_maps:,} maps from {st.n_chunks} shards "
                f"(config {scene.config_hash[:12]})")
+    if do_refine and scene.refine is not None:
+        _run_refinement(out, scene.refine, threads, sys.stderr.isatty(), False, wait)
 
 
 TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
@@ -320,32 +448,39 @@ TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejecti
               help="Part friction (a value of the store); default: every value.")
 @click.option("-n", "n", type=int, default=None,
               help="How many designs per part [default: 10 for one part, else 1].")
-@click.option("--by", default="Lambda", show_default=True,
-              help="Summary variable to rank by (e.g. caging_area, n_caged).")
+@click.option("--by", default=None,
+              help="Summary variable to rank by (e.g. Lambda, caging_area, n_caged) "
+                   "[default: the refined ranking when the store is refined, else Lambda].")
 @click.option("--ascending", is_flag=True, help="Smallest first.")
 @click.option("--command", "command", type=int, default=0, show_default=True,
               help="Command index, for stores with several commands.")
 def top(results, r, mu, n, by, ascending, command):
     """Print the best designs of each part (r, mu) of a results store, as tables.
 
-    Designs are ranked by --by (default Lambda, the paper's caging metric; at a fixed grid
-    spacing caging_area ranks identically), largest first unless --ascending; ties keep the
-    store's order. Without --r / --mu every part of the store is listed (by default its best
-    design only). Examples: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10 --by caging_area;
-    sweep top paper.h5   (the best design of each of the 16 parts)
+    In a refined store (`refine:`, `sweep refine`) the designs are ranked by the refinement:
+    the designs still in the running at the finest grid first (the best, then its near-tie
+    set), then the other contenders, then the rest, each group by refined caging area (the
+    screened one for designs not refined); each part's table is headed by its best design, its
+    lead over the runner-up, the finest h reached and "certified" or the near-tie set. Otherwise,
+    and with --by, designs are ranked by that screened summary variable (default Lambda, the
+    paper's caging metric), largest first unless --ascending; ties keep the store's order.
+    Without --r / --mu every part of the store is listed (by default its best design only).
+    Examples: sweep top paper.h5 --r 0.4 --mu 0.1 -n 10; sweep top paper.h5 --by n_caged
     """
     import numpy as np
 
     from .batch import SUMMARY_FIELDS
     from .store import read_store
 
-    if by not in SUMMARY_FIELDS:
+    if by is not None and by not in SUMMARY_FIELDS:
         raise UserError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
     if n is None:
         n = 10 if (r is not None and mu is not None) else 1
     if n < 1:
         raise UserError(f"-n: must be >= 1, got {n}")
     view = read_store(results)
+    if by is None and not view.refine:
+        by = "Lambda"
     chosen = {}
     for name, value in (("r", r), ("mu", mu)):
         coord = view.coords[name]
@@ -366,8 +501,46 @@ def top(results, r, mu, n, by, ascending, command):
         _print_top(view, ri, mui, n, by, ascending, command)
 
 
+def _design_text(designs, d) -> str:
+    l1, l2, r1, r2, w = designs[d]
+    return f"l1={l1:g} l2={l2:g} r1={r1:g} r2={r2:g} w={w:g}"
+
+
+def _refined_header(view, designs, pick, pick_part):
+    """Lines describing one part's refinement, the refined ranking and the outcome."""
+    import numpy as np
+
+    from .refine import equal_r_classes, part_outcome, ranking
+
+    ref = view.refine
+    role, value, error = (pick(ref[k]) for k in ("refine_role", "refined_caging_area",
+                                                  "refined_error"))
+    out = part_outcome(equal_r_classes(designs), role, value, error,
+                       pick_part(ref["refine_status"]), pick_part(ref["refine_finest_h"]),
+                       pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]))
+    order = ranking(role, value, pick(view.variables["caging_area"]).astype(np.float64))
+    if out.status == "not_refined":
+        return ["  refinement: not refined (no design cages at the screening spacing)"], \
+            order, out
+    twins = f" (+{out.n_best - 1} equal-R)" if out.n_best > 1 else ""
+    b = out.best
+    rel = out.margin / value[b] if value[b] > 0 else float("nan")
+    lines = [f"  refinement: {out.status.replace('_', '-')} at h = {out.finest_h:g}; best "
+             f"{_design_text(designs, b)}{twins}, refined caging area {value[b]:.6g} "
+             f"(error {error[b]:.2g}), lead over the runner-up {out.margin:.3g} ({rel:.2%})"
+             + ("" if out.bound_held else "; the contender bound did not hold (a design left out "
+                "could be the best: raise refine.bound)")]
+    if not out.certified:
+        lines.append(f"  near-tie set ({len(out.members)}): " + "; ".join(
+            f"{_design_text(designs, d)}: {value[d]:.6g} +- {error[d]:.2g}"
+            for d in out.members))
+    return lines, order, out
+
+
 def _print_top(view, ri, mui, n, by, ascending, command):
     import numpy as np
+
+    from .refine import designs_of_coords
 
     sel = {"r": ri, "mu": mui}
     if "command" in view.dims:
@@ -378,20 +551,36 @@ def _print_top(view, ri, mui, n, by, ascending, command):
         index = tuple(sel.get(d, slice(None)) for d in view.dims)
         return arr[index].reshape(-1)       # remaining dims are design_dims, in order
 
+    def pick_part(arr):
+        return arr[(ri, mui) + ((command,) if "command" in view.dims else ())]
+
     values = {f: pick(view.variables[f]) for f in view.variables}
-    key = values[by].astype(np.float64)
-    key = np.where(np.isnan(key), -np.inf if not ascending else np.inf, key)
-    order = np.argsort(key if ascending else -key, kind="stable")[:n]
-    grids = np.meshgrid(*(view.coords[d] for d in design_dims), indexing="ij")
-    designs = {d: g.reshape(-1) for d, g in zip(design_dims, grids)}
-    cols = list(TOP_COLUMNS) if by in TOP_COLUMNS else [by] + list(TOP_COLUMNS)
+    designs = designs_of_coords(view.coords)
+    header = []
+    refined = by is None
+    if refined:
+        header, order, _ = _refined_header(view, designs, pick, pick_part)
+        order = order[:n]
+        values["refined_caging_area"] = pick(view.refine["refined_caging_area"])
+        values["refined_error"] = pick(view.refine["refined_error"])
+        level = pick(view.refine["refined_level"]).astype(np.float64)
+        values["refined_h"] = np.where(level > 0, view.attrs["grid_h"] / 2.0 ** level, np.nan)
+        cols = ["refined_caging_area", "refined_error", "refined_h"] + list(TOP_COLUMNS)
+        what = "the refined ranking"
+    else:
+        key = values[by].astype(np.float64)
+        key = np.where(np.isnan(key), -np.inf if not ascending else np.inf, key)
+        order = np.argsort(key if ascending else -key, kind="stable")[:n]
+        cols = list(TOP_COLUMNS) if by in TOP_COLUMNS else [by] + list(TOP_COLUMNS)
+        what = f"{by}{' (ascending)' if ascending else ''}"
     head = ["rank"] + list(design_dims) + cols
     rows = []
     for rank, i in enumerate(order, 1):
-        row = [str(rank)] + [f"{designs[d][i]:g}" for d in design_dims]
+        row = [str(rank)] + [f"{designs[i][k]:g}" for k in range(len(design_dims))]
         for c in cols:
             v = values[c][i]
-            row.append(f"{v:.6g}" if np.issubdtype(values[c].dtype, np.floating) else f"{v:d}")
+            row.append(("-" if np.isnan(v) else f"{v:.6g}")
+                       if np.issubdtype(values[c].dtype, np.floating) else f"{v:d}")
         rows.append(row)
     widths = [max(len(h), *(len(r_[k]) for r_ in rows)) for k, h in enumerate(head)]
     cmd = ""
@@ -399,10 +588,11 @@ def _print_top(view, ri, mui, n, by, ascending, command):
         cmd = f", command {command}"
     elif "f_left" in view.attrs:
         cmd = f", F_left {view.attrs['f_left']:g}, F_right {view.attrs['f_right']:g}"
-    ndesigns = values[by].size
     click.echo(f"part r = {view.coords['r'][sel['r']]:g}, mu = {view.coords['mu'][sel['mu']]:g}"
-               f"{cmd}: top {len(rows)} of {ndesigns:,} designs by {by}"
-               f"{' (ascending)' if ascending else ''}; h = {view.attrs.get('grid_h', '?')}")
+               f"{cmd}: top {len(rows)} of {designs.shape[0]:,} designs by {what}; screened at "
+               f"h = {view.attrs.get('grid_h', '?')}")
+    for line in header:
+        click.echo(line)
     click.echo("  ".join(h.rjust(w) for h, w in zip(head, widths)))
     for row in rows:
         click.echo("  ".join(v.rjust(w) for v, w in zip(row, widths)))
@@ -415,6 +605,8 @@ def show(results):
     """Print what a results store holds: dimensions, variables, config, effects, grid,
     provenance and timings. Shard and part files, and single maps (`sweep map`,
     outputs.save_maps), get a short description."""
+    import numpy as np
+
     from .store import CorruptFile, StoreError, read_block, read_store
 
     try:
@@ -460,6 +652,12 @@ def show(results):
               f"wall {a['wall_seconds']:.1f} s" if "wall_seconds" in a else "",
               f"{a['maps_per_second']:,.0f} maps/s" if "maps_per_second" in a else ""]
     click.echo("  timings: " + ", ".join(t for t in timing if t))
+    if view.refine:
+        click.echo(f"  refinement: {a.get('refine_counts')}; levels h = "
+                   f"{', '.join(f'{x:g}' for x in np.atleast_1d(a.get('refine_level_h', [])))}; "
+                   f"cap bound {a.get('refine_bound')}, at least {a.get('refine_min_contenders')} "
+                   f"contenders; {a.get('refine_compute_seconds', float('nan')):.1f} s of compute "
+                   f"(variables: {', '.join(view.refine)})")
     if "saved_maps" in a:
         import json
 
@@ -590,7 +788,7 @@ def report(stores, out, top_k, overwrite, wait):
 
 
 # ---------------------------------------------------------------------------------------------
-COMMANDS = (run, slurm_command, status, merge, top, show, report)
+COMMANDS = (run, slurm_command, status, merge, refine, top, show, report)
 
 
 def register(group: click.Group) -> None:

@@ -41,6 +41,18 @@ def atomic_file(path: str | os.PathLike, mode: str = "w"):
     write_bytes_atomic(path, buffer.getbuffer())
 
 
+@contextlib.contextmanager
+def atomic_amend(path: str | os.PathLike):
+    """Yield an existing HDF5 file, read into memory and opened for changes; write it back to
+    `path` atomically (as `atomic_file`) only if the block succeeds: until then, and if the
+    block fails or the process is killed, the file on disk is the old one, whole."""
+    path = Path(path)
+    buffer = io.BytesIO(path.read_bytes())
+    with h5py.File(buffer, "r+") as f:
+        yield f
+    write_bytes_atomic(path, buffer.getbuffer())
+
+
 def write_coordinate(f: h5py.Group, name: str, values,
                      attrs: Mapping | None = None) -> h5py.Dataset:
     """A 1-D coordinate variable that is also the dimension scale of dimension `name`."""

@@ -3,7 +3,9 @@
 `build_report(store, out_dir, top_k=None, log=...)` reads a store written by `sweep run` and
 writes into `out_dir`:
 
-- `best_caging.png`, `best_caging.csv`: the best caging design of every part, its map;
+- `best_caging.png`, `best_caging.csv`: the best caging design of every part, its map (in a
+  refined store the refined best, with its margin, finest h and certification, and
+  `refinement.csv`: each part's certified design or near-tie set);
 - `caging_vs_tip.png`, `caging_vs_tip.csv`, `representative_designs.csv`: caged versus
   tip-prehension end points per design for the smallest and the largest part at the highest
   friction, with three representative designs;
@@ -43,7 +45,7 @@ MANIPULATION_VARIABLES = ("manipulation_a", "manipulation_a_area", "manipulation
                           "manipulation_b_poses", "parameter_usage",
                           "manipulation_b_pose_value")
 CAGING_FILES = ("best_caging.png", "best_caging.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
-                "representative_designs.csv")
+                "representative_designs.csv", "refinement.csv")
 MANIPULATION_FILES = ("manipulation.png", "manipulation.csv", "scenario_a_candidates.csv",
                       "parameter_usage.png", "parameter_usage.csv")
 MARKER = "report.json"
@@ -90,6 +92,7 @@ class StoreData:
     scene: object               # sweep.scene.Scene rebuilt from the frozen config
     attrs: dict
     manipulation: bool
+    _reps: np.ndarray | None = None     # equal-R class of every design (refined stores)
 
     @property
     def r(self) -> np.ndarray:
@@ -110,6 +113,29 @@ class StoreData:
     def design(self, flat: int) -> dict:
         idx = np.unravel_index(flat, tuple(self.ds[d].size for d in DESIGN_DIMS))
         return {d: float(self.ds[d].values[i]) for d, i in zip(DESIGN_DIMS, idx)}
+
+    @property
+    def refined(self) -> bool:
+        """The store holds the refinement stage's variables (`sweep.refine`)."""
+        return "refine_status" in self.ds
+
+    def refinement(self, ri: int, mi: int):
+        """The part's refined answer (`sweep.refine.PartOutcome`), None if not refined."""
+        from .refine import designs_of_coords, equal_r_classes, part_outcome
+
+        if not self.refined:
+            return None
+        if self._reps is None:
+            self._reps = equal_r_classes(designs_of_coords(
+                {d: self.ds[d].values for d in DESIGN_DIMS}))
+        part = self.ds[["refine_status", "refine_finest_h", "refine_margin",
+                        "refine_bound_held"]].isel(r=ri, mu=mi)
+        out = part_outcome(self._reps, self.per_design("refine_role", ri, mi),
+                           self.per_design("refined_caging_area", ri, mi),
+                           self.per_design("refined_error", ri, mi),
+                           int(part["refine_status"]), float(part["refine_finest_h"]),
+                           float(part["refine_margin"]), bool(part["refine_bound_held"]))
+        return None if out.status == "not_refined" else out
 
 
 def open_store(path: Path) -> StoreData:
@@ -135,23 +161,58 @@ def open_store(path: Path) -> StoreData:
 # ---------------------------------------------------------------------------------------------
 # Tables (rows of plain values; CSV and markdown are made from them)
 # ---------------------------------------------------------------------------------------------
+def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
+    """Flat design indices of one part, best first: the refined ranking in a refined store
+    (`sweep.refine.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
+    if st.refinement(ri, mi) is not None:
+        from .refine import ranking
+
+        return ranking(st.per_design("refine_role", ri, mi),
+                       st.per_design("refined_caging_area", ri, mi),
+                       st.per_design("caging_area", ri, mi))
+    return np.argsort(-tie_key(st.per_design("Lambda", ri, mi)), kind="stable")
+
+
+def best_design(st: StoreData, ri: int, mi: int) -> dict:
+    """The best caging design of one part and what backs it: the one place the report reads
+    it. In a refined store: the refined best (its refined caging area, error estimate, lead over
+    the runner-up, finest h, "certified" or the near-tie set, `near_tie` listing each member);
+    else the design of largest Lambda, first in store order among ties (`tie_key`)."""
+    lam = st.per_design("Lambda", ri, mi)
+    key = tie_key(lam)
+    out = st.refinement(ri, mi)
+    k = out.best if out is not None else int(np.argmax(key))
+    d = st.design(k)
+    row = dict(r=float(st.r[ri]), mu=float(st.mu[mi]), **d, R=d["r2"] / d["r1"],
+               Lambda=float(lam[k]),
+               caging_area=float(st.per_design("caging_area", ri, mi)[k]),
+               n_caged=int(st.per_design("n_caged", ri, mi)[k]),
+               n_tip_prehension=int(st.per_design("n_tip_prehension", ri, mi)[k]),
+               n_caged_points=int(st.per_design("n_caged_points", ri, mi)[k]),
+               n_caged_crossed=int(st.per_design("n_caged_crossed", ri, mi)[k]),
+               n_tied=(out.n_best if out is not None else
+                       int(np.count_nonzero(key == key[k]))), design_index=k)
+    if st.refined:
+        row.update(refined_caging_area=math.nan, refined_error=math.nan, margin=math.nan,
+                   finest_h=float(st.scene.h), certification="not refined", near_tie=[])
+    if out is not None:
+        row.update(refined_caging_area=float(out.value[k]), refined_error=float(out.error[k]),
+                   margin=out.margin, finest_h=out.finest_h,
+                   certification=("certified" if out.certified else
+                                  f"near-tie ({len(out.members)})")
+                   + ("" if out.bound_held else ", bound not confirmed"),
+                   near_tie=[dict(r=row["r"], mu=row["mu"], status=out.status, **st.design(m),
+                                  R=st.design(m)["r2"] / st.design(m)["r1"],
+                                  refined_caging_area=float(out.value[m]),
+                                  refined_error=float(out.error[m]), finest_h=out.finest_h,
+                                  bound_held=out.bound_held)
+                             for m in out.members])
+    return row
+
+
 def best_caging_rows(st: StoreData) -> list[dict]:
-    """Per part: the design of largest Lambda, first in store order among ties (`tie_key`)."""
-    rows = []
-    for ri, mi in st.parts():
-        lam = st.per_design("Lambda", ri, mi)
-        key = tie_key(lam)
-        k = int(np.argmax(key))
-        d = st.design(k)
-        rows.append(dict(r=float(st.r[ri]), mu=float(st.mu[mi]), **d, R=d["r2"] / d["r1"],
-                         Lambda=float(lam[k]),
-                         caging_area=float(st.per_design("caging_area", ri, mi)[k]),
-                         n_caged=int(st.per_design("n_caged", ri, mi)[k]),
-                         n_tip_prehension=int(st.per_design("n_tip_prehension", ri, mi)[k]),
-                         n_caged_points=int(st.per_design("n_caged_points", ri, mi)[k]),
-                         n_caged_crossed=int(st.per_design("n_caged_crossed", ri, mi)[k]),
-                         n_tied=int(np.count_nonzero(key == key[k])), design_index=k))
-    return rows
+    """Per part: its best design (`best_design`)."""
+    return [best_design(st, ri, mi) for ri, mi in st.parts()]
 
 
 def caging_tip_parts(st: StoreData) -> list[tuple[int, int]]:
@@ -210,13 +271,12 @@ def representative_rows(st: StoreData) -> list[dict]:
 
 
 def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
-    """(l1, l2, r1, r2) index tuples of the top-k caging designs (by Lambda, store order among
-    ties) of every part, duplicates merged, in store order."""
+    """(l1, l2, r1, r2) index tuples of the top-k caging designs of every part
+    (`design_ranking`: refined where the store is), duplicates merged, in store order."""
     shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
     found = set()
     for ri, mi in st.parts():
-        key = tie_key(st.per_design("Lambda", ri, mi))
-        for k in np.argsort(-key, kind="stable")[:top_k]:
+        for k in design_ranking(st, ri, mi)[:top_k]:
             found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
     return sorted(found)
 
@@ -295,6 +355,21 @@ def md_table(rows: list[dict], columns: list[str], headers: list[str] | None = N
 
 BEST_COLUMNS = ["r", "mu", "l1", "l2", "r1", "r2", "w", "R", "Lambda", "caging_area", "n_caged",
                 "n_tip_prehension", "n_caged_points", "n_caged_crossed", "n_tied"]
+#: Columns added to BEST_COLUMNS in a refined store.
+REFINED_COLUMNS = ["refined_caging_area", "refined_error", "margin", "finest_h", "certification"]
+#: refinement.csv: every member of each part's final set (the certified best, or the near-tie
+#: set), each with its value and error estimate.
+REFINEMENT_COLUMNS = ["r", "mu", "status", "l1", "l2", "r1", "r2", "w", "R",
+                      "refined_caging_area", "refined_error", "finest_h", "bound_held"]
+
+
+def best_columns(st: StoreData) -> list[str]:
+    return BEST_COLUMNS + (REFINED_COLUMNS if st.refined else [])
+
+
+def refinement_rows(best: list[dict]) -> list[dict]:
+    """refinement.csv's rows: each part's final set, best first."""
+    return [m for row in best for m in row["near_tie"]]
 CT_COLUMNS = ["r", "mu", "l1", "l2", "r1", "r2", "w", "n_caged", "n_tip_prehension", "Lambda"]
 REP_COLUMNS = ["r", "mu", "kind", "l1", "l2", "r1", "r2", "w", "R", "n_caged",
                "n_tip_prehension", "Lambda"]
@@ -344,6 +419,9 @@ def best_caging_figure(st: StoreData, rows: list[dict], log) -> Figure:
         title = (f"part r={row['r']:g}, μ={row['mu']:g}\n{_design_text(row)}\n"
                  f"Λ={fmt(row['Lambda'])}, caging area={fmt(row['caging_area'])}, "
                  f"{row['n_tied']} tied")
+        if "certification" in row:
+            title += (f"\nrefined: {fmt(row['refined_caging_area'])} at h={fmt(row['finest_h'])}, "
+                      f"{row['certification']}")
         draw_map_panel(axes[mi, ri], m, title=title, colorbar_label="energy V (unitless)")
     fig.suptitle("Best caging design of each part (largest Λ; columns: part radius r, rows: "
                  "friction μ)\nColour: energy V, each panel its own scale; white hatching: part "
@@ -543,7 +621,8 @@ def identity(st: StoreData, top_k: int | None) -> dict:
     """What a report is made from; equal identities make a rerun a no-op."""
     a = st.attrs
     return dict(store=str(st.path.resolve()), config_hash=a.get("config_hash"),
-                store_created_utc=a.get("created_utc"), top_k=top_k,
+                store_created_utc=a.get("created_utc"),
+                store_refined_utc=a.get("refine_created_utc"), top_k=top_k,
                 manipulation=st.manipulation, report_version=__version__)
 
 
@@ -581,7 +660,9 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     rep = make_tables(st, top_k)
     write, finish = report_files(Path(out_dir), identity(st, top_k), rep.files)
 
-    write("best_caging.csv", csv_bytes(rep.best, BEST_COLUMNS))
+    write("best_caging.csv", csv_bytes(rep.best, best_columns(st)))
+    if st.refined:
+        write("refinement.csv", csv_bytes(refinement_rows(rep.best), REFINEMENT_COLUMNS))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
     write("representative_designs.csv", csv_bytes(rep.representatives, REP_COLUMNS))
     if st.manipulation:
@@ -804,8 +885,40 @@ def markdown(st: StoreData, rep: Report) -> str:
              " the manipulation and parameter-usage parts are skipped"),
           "- All quantities are unitless (model units: lengths, tensions and forces per unit "
           "tendon tension)."]
-    L += ["", "## Rules", "",
-          "- Best caging design of a part: largest Λ over (l1, l2, r1, r2, w); ties are "
+    if st.refined:
+        counts = json.loads(a["refine_counts"]) if isinstance(a.get("refine_counts"), str) \
+            else a.get("refine_counts", {})
+        L.append(f"- Refinement: up to {a.get('refine_levels')} levels (h down to "
+                 f"{fmt(sc.h / 2 ** int(a.get('refine_levels', 0)))}), contender bound per "
+                 f"part at most {fmt(a.get('refine_bound'))} of the best screened caging area, "
+                 f"at least {a.get('refine_min_contenders')} contenders; "
+                 f"{counts.get('certified', 0)} "
+                 f"parts certified, {counts.get('near_tie', 0)} near-tie sets, "
+                 f"{counts.get('not_refined', 0)} not refined; compute "
+                 f"{fmt(a.get('refine_compute_seconds', math.nan))} s "
+                 f"({fmt(100 * a.get('refine_fraction_of_screening', math.nan))} % of the "
+                 "screening's)")
+    L += ["", "## Rules", ""]
+    if st.refined:
+        L += ["- Best caging design of a part (refined store): the screening ranks every design "
+              "by its caging area at h; the contenders (the min_contenders best, and every "
+              "design the change of those from h to h/2 says could still be the best, at most "
+              "those within the bound of the part's best; equal-R designs, same l1, l2, w and "
+              "R, give the same map and count once, `tied`) are "
+              "recomputed at h/2, h/4, ..., and a contender leaves the running once its value "
+              "plus its error estimate (its change from the level before) falls below the best's "
+              "value minus the best's error estimate. **Certification:** a part is certified "
+              "when the best design's lead over every other contender exceeds the change "
+              "between the last two levels of both, so that a finer grid is not expected to "
+              "change it; at the level cap the designs still in the running are the part's "
+              "near-tie set, each reported with its value and error estimate.",
+              "- *Bound not confirmed*: the contender bound is checked per part; it held when the "
+              "best's refined value minus its error exceeds every other design's screened value "
+              "plus the largest change any contender showed from screening to its finest level. "
+              "Where it did not, a design left out by the bound could be the best (raise "
+              "`refine.bound`)."]
+    L += ["- Best caging design of a part" + (" that is not refined" if st.refined else "")
+          + ": largest Λ over (l1, l2, r1, r2, w); ties are "
           "expected (configurations depend on the radii only through R = r2/r1), broken by the "
           "first design in store order (l1, l2, r1, r2, w, last fastest); `tied` counts the "
           f"designs with that Λ. Λ is compared at {TIE_DIGITS} significant digits: equal-R "
@@ -821,7 +934,9 @@ def markdown(st: StoreData, rep: Report) -> str:
           "stable point of lowest energy, else the centre of P_j)."]
     if st.manipulation:
         L += ["- Scenario A candidates: the (l1, l2, r1, r2) of the top-k caging designs (by Λ, "
-              "store order among ties) of every part, duplicates merged. Best candidate: the "
+              "store order among ties; in a refined store by the refined ranking: the final set, "
+              "then the other contenders, then the rest, each by caging area at the finest h "
+              "reached) of every part, duplicates merged. Best candidate: the "
               "largest Scenario A metric summed over all parts (first in store order among "
               f"ties; both compared at {TIE_DIGITS} significant digits). Per part, the "
               "scenario with the larger metric wins; equal metrics are a "
@@ -829,7 +944,21 @@ def markdown(st: StoreData, rep: Report) -> str:
               "- Per-pose maps: the part with the largest min(A, B) of the best candidate's A "
               "and B, so that both maps show something (first in table order among ties)."]
     L += ["", "## 1. Best caging design per part (`best_caging.png`, `best_caging.csv`)", "",
-          md_table(rep.best, BEST_COLUMNS, BEST_COLUMNS[:-1] + ["tied"])]
+          md_table(rep.best, best_columns(st),
+                   [{"n_tied": "tied"}.get(c, c) for c in best_columns(st)])]
+    if st.refined:
+        L += ["", "Columns Lambda to tied are the screening's (grid h above); refined_caging_area "
+              "and refined_error are at finest_h; margin is the best's lead over the runner-up "
+              "there. Each part's final set (`refinement.csv`: the certified design, or every "
+              "member of the near-tie set with its value and error estimate):", ""]
+        for row in rep.best:
+            if row["certification"] == "not refined":
+                L.append(f"- {_part(row)}: not refined (no design cages at the screening "
+                         "spacing).")
+                continue
+            L.append(f"- {_part(row)}: {row['certification']} at h = {fmt(row['finest_h'])}: "
+                     + "; ".join(f"{_design_text(m)} {fmt(m['refined_caging_area'])} ± "
+                                 f"{fmt(m['refined_error'])}" for m in row["near_tie"]) + ".")
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, "
           "`representative_designs.csv`; every design's counts in `caging_vs_tip.csv`)", "",
           md_table(rep.representatives, REP_COLUMNS)]

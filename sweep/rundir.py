@@ -7,6 +7,8 @@ what state they are in:
 
 - one machine (`SingleRun`): ``RESULTS``, its work directory ``RESULTS.parts/`` (one part file
   ``items-SSSSSSSS-EEEEEEEE.h5`` per finished sub-chunk, `part_path`) and ``RESULTS.maps/``;
+- the refinement of any store (`refine_dir`): ``RESULTS.refine/`` (one file per finished batch
+  of maps, `sweep.refine`);
 - a cluster run (`RunDir`): ``DIR/sweep-manifest.json``, ``DIR/shard-IIII-of-NNNN.h5``,
   ``DIR/parts/shard-IIII-of-NNNN/``, ``DIR/maps/``, ``DIR/logs/``.
 
@@ -85,6 +87,16 @@ class SingleRun:
     @property
     def maps(self) -> Path:
         return self.out.with_name(self.out.name + ".maps")
+
+    @property
+    def refine(self) -> Path:
+        return refine_dir(self.out)
+
+
+def refine_dir(store: Path) -> Path:
+    """Work directory of the refinement of the store `store` (`sweep.refine`): beside it."""
+    store = Path(store)
+    return store.with_name(store.name + ".refine")
 
 
 def part_path(parts_dir: Path, start: int, stop: int) -> Path:

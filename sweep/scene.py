@@ -52,7 +52,7 @@ ITEM_ORDER = ("l1", "l2", "r", "command", "r1", "r2", "mu")
 GROUP_AXES = 3
 
 TOP_KEYS = ("name", "designs", "parts", "commands", "grid", "limits", "accuracy", "effects",
-            "outputs", "run")
+            "outputs", "refine", "run")
 RANGE_KEYS = ("lower", "upper", "step")
 COMMAND_KEYS = ("f_left", "f_right")
 GRID_KEYS = ("h", "bounds")
@@ -65,6 +65,9 @@ OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k"
 SPRING_KEYS = ("K1", "K2")
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)
 RUN_KEYS = ("sub_chunk_cells",)
+REFINE_KEYS = ("levels", "bound", "min_contenders")
+#: Most refinement levels a config may ask for (h / 2**6 is 64 times finer than screening).
+MAX_REFINE_LEVELS = 6
 
 #: Most values one parameter may expand to (a typo such as step 1e-9 fails here, not in memory).
 MAX_VALUES_PER_PARAMETER = 100_000
@@ -84,6 +87,27 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 class SceneError(ModelInputError):
     """A bad config; the message starts with the key it is about."""
+
+
+@dataclass(frozen=True)
+class RefineSettings:
+    """The refinement stage (`refine:` in a config; docs/sweeps.md, "Refinement";
+    `sweep.refine`): after the screening sweep at `h`, per part and command, the contenders
+    (the `min_contenders` best designs, and those their own coarse-versus-fine change calls
+    for, never below (1 - bound) times the part's best screened caging area; equal-R designs
+    counted once) are recomputed at h/2, h/4, ... h/2**levels until the best is certified.
+    The defaults are what `refine: true` means; configs/paper.yaml states its own."""
+
+    levels: int = 3
+    bound: float = 0.1
+    min_contenders: int = 3
+
+    def as_dict(self) -> dict:
+        return dict(levels=self.levels, bound=self.bound, min_contenders=self.min_contenders)
+
+    def level_h(self, h: float, level: int) -> float:
+        """Grid spacing of a level: h / 2**level (exact in binary floating point)."""
+        return h / 2.0 ** level
 
 
 # ---------------------------------------------------------------------------------------------
@@ -106,6 +130,7 @@ class Scene:
     outputs: Outputs = Outputs()  # outputs.energy/equilibrium/caging/forces (MODEL 9)
     manipulation: bool = False   # outputs.manipulation: Scenarios A and B of MODEL 10
     scenario_a_top_k: int = 10   # outputs.scenario_a_top_k: Scenario A's candidates per part
+    refine: RefineSettings | None = None  # refine: the refinement stage; None when off
     source: dict = field(default_factory=dict, compare=False)  # the config as written
     path: str | None = field(default=None, compare=False)      # the file it was read from
 
@@ -212,8 +237,9 @@ class Scene:
 
     @property
     def config_hash(self) -> str:
-        """sha256 of the resolved config. Name, outputs and run settings do not enter it: they
-        change no summary, so a rerun with another sub-chunk size still resumes."""
+        """sha256 of the resolved config. Name, outputs, refine and run settings do not enter
+        it: they change no summary, so a rerun with another sub-chunk size still resumes (the
+        refinement's own identity is `sweep.refine.refine_identity`)."""
         text = json.dumps(self.resolved(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -222,7 +248,8 @@ class Scene:
         return dict(name=self.name, config_hash=self.config_hash, sweep_version=__version__,
                     resolved=self.resolved(), source=self.source,
                     save_maps=list(self.save_maps), sub_chunk_cells=self.sub_chunk_cells,
-                    **({"scenario_a_top_k": self.scenario_a_top_k} if self.manipulation else {}))
+                    **({"scenario_a_top_k": self.scenario_a_top_k} if self.manipulation else {}),
+                    **({"refine": self.refine.as_dict()} if self.refine else {}))
 
     def part_keys(self, start: int, stop: int) -> np.ndarray:
         """(r index, mu index) of items [start, stop): the part each item's maps belong to."""
@@ -453,6 +480,8 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
         raise SceneError("effects.tip_contact: forces and the manipulation metric have no tip "
                          "contacts (model-notes D15); switch them off")
 
+    refine = refine_settings(raw.get("refine", False), values, h)
+
     run = _mapping(raw.get("run", {}) or {}, "run", RUN_KEYS)
     sub = run.get("sub_chunk_cells")
     if sub is not None and (isinstance(sub, bool) or not isinstance(sub, int) or sub < 1):
@@ -461,7 +490,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     return Scene(name=name, values=values, commands=commands, h=h, bounds=bounds, limits=limits,
                  accuracy=accuracy, effects=effects, save_maps=save_maps, sub_chunk_cells=sub,
                  outputs=map_outputs, manipulation=manipulation, scenario_a_top_k=top_k,
-                 source=_jsonable(raw))
+                 refine=refine, source=_jsonable(raw))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -598,6 +627,38 @@ def _check_coarse(values: dict, h: float) -> None:
                             f"grid.h: {h!r} gives the map of l1={l1}, l2={l2}, w={w}, r={r} only "
                             f"{nx} x {ny} grid points (x by y), fewer than "
                             f"{MIN_POINTS_PER_AXIS} along an axis; use a smaller grid.h")
+
+
+def refine_settings(spec, values: dict, h: float) -> RefineSettings | None:
+    """`refine:` false (or absent): off; true: the defaults; a mapping: those keys (validated,
+    the finest level's memory too)."""
+    if spec is False or spec is None:
+        return None
+    if spec is True:
+        spec = {}
+    spec = _mapping(spec, "refine", REFINE_KEYS)
+    default = RefineSettings()
+    levels = spec.get("levels", default.levels)
+    if isinstance(levels, bool) or not isinstance(levels, int) or \
+            not 1 <= levels <= MAX_REFINE_LEVELS:
+        raise SceneError(f"refine.levels: must be a whole number from 1 to {MAX_REFINE_LEVELS}, "
+                         f"got {levels!r}")
+    bound = _number(spec.get("bound", default.bound), "refine.bound")
+    if not 0.0 <= bound <= 1.0:
+        raise SceneError(f"refine.bound: must be in [0, 1] (a fraction of the part's best "
+                         f"screened caging area), got {bound!r}")
+    floor = spec.get("min_contenders", default.min_contenders)
+    if isinstance(floor, bool) or not isinstance(floor, int) or floor < 2:
+        raise SceneError(f"refine.min_contenders: must be a whole number >= 2 (the best and a "
+                         f"runner-up), got {floor!r}")
+    settings = RefineSettings(levels=levels, bound=bound, min_contenders=floor)
+    finest = settings.level_h(h, levels)
+    try:
+        _check_memory(values, finest)
+    except SceneError as exc:
+        raise SceneError(f"refine.levels: the finest level h/2^{levels} = {finest:g}: "
+                         f"{str(exc).removeprefix('grid.h: ')}") from None
+    return settings
 
 
 def _save_maps(spec, values: dict, n_commands: int) -> tuple[dict, ...]:

@@ -186,6 +186,62 @@ SUMMARY_INDEX = {name: k for k, name in enumerate(SUMMARY_FIELDS)}
 COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
 
 
+# ---------------------------------------------------------------------------------------------
+# The refinement stage (sweep.refine): per design and part (store dims, like the summaries) and
+# per part (r, mu and command when the store has that dimension)
+# ---------------------------------------------------------------------------------------------
+#: Role of a design in its part's refinement (`refine_role`).
+REFINE_ROLE_MEANINGS = ("screened", "eliminated", "near_tie", "best")
+#: Outcome of a part's refinement (`refine_status`).
+REFINE_STATUS_MEANINGS = ("not_refined", "certified", "near_tie")
+PART_DIMS = ("part",)   # stands for (r, mu) or (r, mu, command)
+
+REFINE_FIELDS = (
+    Field("refined_caging_area", "float64", (),
+          "caging area Lambda h^2 of the design at the finest refinement level its equal-R "
+          "class reached (grid spacing h / 2**refined_level); NaN where screened only",
+          "length^2 (model units)", "refine"),
+    Field("refined_level", "int8", (),
+          "refinement level of refined_caging_area: recomputed at h / 2**level (h: grid_h); "
+          "0 where screened only", "1", "refine"),
+    Field("refined_error", "float64", (),
+          "error estimate of refined_caging_area: its change from the level before (the "
+          "screened caging_area for level 1); NaN where screened only",
+          "length^2 (model units)", "refine"),
+    Field("refine_role", "int8", (),
+          "role of the design in its part's refinement: not a contender (screened), separated "
+          "from the best at some level (eliminated), in the part's near-tie set, or the best "
+          "(all designs of the best's equal-R class)", output="refine",
+          flags=REFINE_ROLE_MEANINGS),
+    Field("refine_status", "int8", PART_DIMS,
+          "outcome of the part's refinement: certified (the best design's lead over every "
+          "other contender exceeds the change between the last two levels of both), near_tie "
+          "(level cap reached: the designs with refine_role near_tie or best), or not_refined "
+          "(no design cages at the screening spacing)", output="refine",
+          flags=REFINE_STATUS_MEANINGS),
+    Field("refine_finest_h", "float64", PART_DIMS,
+          "finest grid spacing the part's refinement reached (grid_h if not refined)", LENGTH,
+          "refine"),
+    Field("refine_margin", "float64", PART_DIMS,
+          "lead of the best design's refined caging area over the runner-up's at the finest "
+          "level; NaN if not refined", "length^2 (model units)", "refine"),
+    Field("refine_bound_held", "bool", PART_DIMS,
+          "the contender bound held: the best's refined caging area minus its error exceeds "
+          "every non-contender's screened caging area plus the largest change of a contender "
+          "from screening to its finest level (else a design left out by the bound could be "
+          "the best)", "1", "refine"),
+    Field("refine_bound_used", "float64", PART_DIMS,
+          "the part's contender bound: contenders had a screened caging area of at least "
+          "(1 - this) times the part's best (3 times the largest change of its min_contenders "
+          "best designs from screening to h/2, at most refine_bound); NaN if not refined", "1",
+          "refine"),
+    Field("refine_n_contenders", "int32", PART_DIMS,
+          "designs recomputed at the first refinement level (equal-R designs counted each)",
+          "1", "refine"),
+)
+REFINE = {f.name: f for f in REFINE_FIELDS}
+
+
 def markdown_table() -> str:
     """docs/outputs.md's tables, generated from this module."""
     lines = ["# Outputs", "",
@@ -207,6 +263,15 @@ def markdown_table() -> str:
     for f in SUMMARY:
         lines.append(f"| `{f.name}` | {f.dtype} | {f.units or ''} | {f.output} | "
                      f"{f.long_name} |")
+    lines += ["", "## Refinement variables of a store (`refine:`, `sweep refine`)", "",
+              "Per design and part on the store's dimensions, or per part on (r, mu) (and "
+              "command when the store has it).", "",
+              "| name | dtype | dims | units | meaning |", "|---|---|---|---|---|"]
+    for f in REFINE_FIELDS:
+        meaning = f.long_name + (f" (codes: {', '.join(f'{k} {m}' for k, m in enumerate(f.flags))})"
+                                 if f.flags else "")
+        dims = "part" if f.dims == PART_DIMS else "design, part"
+        lines.append(f"| `{f.name}` | {f.dtype} | {dims} | {f.units or ''} | {meaning} |")
     return "\n".join(lines) + "\n"
 
 

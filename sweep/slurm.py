@@ -4,8 +4,10 @@
 Array task ``i`` runs ``sweep run CONFIG --out DIR --chunks N``; `sweep run` reads the chunk index
 from ``SLURM_ARRAY_TASK_ID`` and its thread count from ``SLURM_CPUS_PER_TASK``. Logs go to
 ``DIR/logs/%A_%a.out`` (job id, array index). The merge job runs ``sweep merge`` and
-``sweep report`` once every array task has succeeded; `submit` hands a script file to ``sbatch``
-and returns the job id.
+``sweep report`` once every array task has succeeded; with a config's `refine:` the merge job
+only merges, and a refine job (`refine_script`, submitted with a dependency on the merge job,
+the array tasks' cores) runs ``sweep refine`` and ``sweep report``. `submit` hands a script file
+to ``sbatch`` and returns the job id.
 """
 from __future__ import annotations
 
@@ -31,17 +33,8 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
     if n_chunks < 1:
         raise ValueError(f"n_chunks must be >= 1, got {n_chunks}")
     array = f"0-{n_chunks - 1}" + (f"%{parallel}" if parallel else "")
-    flags = {
-        "array": array,
-        "cpus-per-task": str(cpus_per_task),
-        "error": f"{out_dir}/logs/%A_%a.err",
-        "job-name": job_name,
-        "ntasks": "1",
-        "output": f"{out_dir}/logs/%A_%a.out",
-        "time": time,
-    }
-    if mem:
-        flags["mem"] = mem
+    flags = _job_flags(out_dir, "%A_%a", job_name, cpus_per_task, time, mem)
+    flags["array"] = array
     lines = _header(flags, partition, account, extra)
     lines.append("")
     about = f"# {n_chunks} chunks" + (f" of a {n_maps:,}-map sweep" if n_maps else "")
@@ -60,6 +53,22 @@ def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
         "",
     ]
     return "\n".join(lines)
+
+
+def _job_flags(out_dir: str, log_stem: str, job_name: str, cpus_per_task: int, time: str,
+               mem: str | None) -> dict:
+    """The #SBATCH flags every job of a run has (logs DIR/logs/STEM.out and .err)."""
+    flags = {
+        "cpus-per-task": str(cpus_per_task),
+        "error": f"{out_dir}/logs/{log_stem}.err",
+        "job-name": job_name,
+        "ntasks": "1",
+        "output": f"{out_dir}/logs/{log_stem}.out",
+        "time": time,
+    }
+    if mem:
+        flags["mem"] = mem
+    return flags
 
 
 def _header(flags: dict, partition: str | None, account: str | None,
@@ -83,9 +92,11 @@ def report_dir(results: str) -> str:
 
 def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
                  time: str = "01:00:00", partition: str | None = None,
-                 account: str | None = None, extra: Mapping[str, str] | None = None) -> str:
+                 account: str | None = None, extra: Mapping[str, str] | None = None,
+                 refine: bool = False) -> str:
     """Text of the sbatch script that merges the shards of `out_dir` into the store `results`
-    and writes its report (`report_dir(results)`).
+    and writes its report (`report_dir(results)`); with `refine`, it only merges
+    (``--no-refine``): the refine job (`refine_script`) refines and reports.
 
     It is submitted with ``--dependency=afterok:<array job id>`` (the id is known only then), so
     it runs once, after every array task succeeded. One core: the merge only copies arrays.
@@ -103,8 +114,42 @@ def merge_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = 
         "",
         "# Runs after every array task succeeded (submitted with --dependency=afterok:ARRAY_ID).",
         "set -euo pipefail",
+    ]
+    if refine:
+        lines += [f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)} "
+                  "--no-refine",
+                  "# The refine job (--dependency=afterok:THIS_JOB) refines and reports.", ""]
+        return "\n".join(lines)
+    lines += [
         f"{sweep_cmd} merge {shlex.quote(out_dir)} --out {shlex.quote(results)}",
-        "# The report of the merged store: figures, tables, report.md (see `sweep report --help`).",
+        _REPORT_COMMENT,
+        f"{sweep_cmd} report {shlex.quote(results)} --out {shlex.quote(report_dir(results))}",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+_REPORT_COMMENT = ("# The report of the merged store: figures, tables, report.md (see "
+                   "`sweep report --help`).")
+
+
+def refine_script(*, out_dir: str, results: str, job_name: str, sweep_cmd: str = "sweep",
+                  cpus_per_task: int = 4, time: str = "01:00:00", mem: str | None = None,
+                  partition: str | None = None, account: str | None = None,
+                  extra: Mapping[str, str] | None = None) -> str:
+    """Text of the sbatch script that refines the merged store `results` (`sweep refine`: the
+    contenders' maps on finer grids, threads = the task's cores; resumes if rerun) and writes
+    its report. Submitted with ``--dependency=afterok:<merge job id>``."""
+    flags = _job_flags(out_dir, "refine_%j", job_name, cpus_per_task, time, mem)
+    lines = _header(flags, partition, account, extra)
+    lines += [
+        "",
+        "# Runs after the merge job succeeded (submitted with --dependency=afterok:MERGE_ID).",
+        "# Resumes from RESULTS.refine/ if rerun: sbatch this script again.",
+        "set -euo pipefail",
+        "export OMP_NUM_THREADS=1",
+        f"{sweep_cmd} refine {shlex.quote(results)} --no-progress",
+        _REPORT_COMMENT,
         f"{sweep_cmd} report {shlex.quote(results)} --out {shlex.quote(report_dir(results))}",
         "",
     ]

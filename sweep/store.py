@@ -28,11 +28,12 @@ import numpy as np
 from . import __version__
 from .batch import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from .chunks import Range, exact_cover
-from .h5 import (atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
+from .h5 import (atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
 from .manipulation import PARAMETER_NAMES, ManipulationChunk
 from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
-from .schema import COUNT_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on
+from .schema import (COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS,
+                     summary_field_on)
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
@@ -244,6 +245,7 @@ class StoreView:
     var_attrs: dict[str, dict]
     attrs: dict
     frozen: dict           # the frozen config (`Scene.frozen()`); `scene_from_frozen` rebuilds it
+    refine: dict = field(default_factory=dict)   # refinement variables (`add_refinement`), if any
 
 
 def read_store(path: Path) -> StoreView:
@@ -263,11 +265,53 @@ def read_store(path: Path) -> StoreView:
             var_attrs = {n: {k: _plain(v) for k, v in f[n].attrs.items()
                              if k not in ("DIMENSION_LIST",)} for n in variables}
             attrs = {k: _plain(v) for k, v in f.attrs.items()}
+            refine = {fld.name: f[fld.name][...] for fld in REFINE_FIELDS if fld.name in f}
     except StoreError:
         raise
     except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
         raise StoreError(f"{path}: cannot read results store ({first_line(exc)})") from None
-    return StoreView(path, dims, coords, variables, var_attrs, attrs, frozen)
+    return StoreView(path, dims, coords, variables, var_attrs, attrs, frozen, refine)
+
+
+def part_dims(scene: Scene) -> tuple[str, ...]:
+    """Dimensions of a per-part variable of the store: (r, mu) plus command when present."""
+    return ("r", "mu") + (("command",) if "command" in scene.store_dims else ())
+
+
+def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
+    """Add the refinement variables (`sweep.schema.REFINE_FIELDS`) of `ref` (a
+    `sweep.refine.Refinement`) and its root attributes to the store `path`, rewritten atomically;
+    an earlier refinement's variables are replaced. The screened variables are not touched."""
+    shape = scene.store_shape
+    pshape = tuple(scene.axis_len(d) for d in part_dims(scene))
+    arrays = dict(refined_caging_area=ref.value, refined_level=ref.level,
+                  refined_error=ref.error, refine_role=ref.role, refine_status=ref.status,
+                  refine_finest_h=ref.finest_h(), refine_margin=ref.margin,
+                  refine_bound_held=ref.bound_held, refine_bound_used=ref.bound_used,
+                  refine_n_contenders=ref.n_contenders)
+    with atomic_amend(path) as f:
+        for fld in REFINE_FIELDS:
+            if fld.name in f:
+                del f[fld.name]
+            per_part = fld.dims == PART_DIMS
+            data = np.asarray(arrays[fld.name], dtype=fld.dtype).reshape(
+                pshape if per_part else shape)
+            write_variable(f, fld.name, data, part_dims(scene) if per_part else scene.store_dims,
+                           fld.attrs())
+        s = ref.settings
+        set_root_attrs(f, dict(
+            refine_levels=s.levels, refine_bound=s.bound, refine_min_contenders=s.min_contenders,
+            refine_level_h=[s.level_h(scene.h, k) for k in range(1, s.levels + 1)],
+            refine_level_maps=list(ref.level_maps),
+            refine_level_seconds=[float(x) for x in ref.level_seconds],
+            refine_counts=ref.counts(), refine_created_utc=provenance()["created_utc"],
+            refine_note="contenders: the refine_min_contenders best designs and those whose "
+                        "screened caging area is at least (1 - refine_bound_used) times the "
+                        "part's best (equal-R designs, same l1, l2, w and r2/r1, count once); "
+                        "recomputed at refine_level_h until the best's lead over every other "
+                        "contender exceeds the change between the last two levels of both "
+                        "(docs/sweeps.md)",
+            **attrs))
 
 
 def scene_from_frozen(frozen: dict) -> Scene:

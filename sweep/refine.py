@@ -1,0 +1,625 @@
+"""The refinement stage: best designs that the grid cannot change (docs/sweeps.md, "Refinement";
+model-notes D18).
+
+The screening sweep ranks every design at the config's spacing `h`; only a few designs per part
+can be the best, so only they are recomputed on finer grids. Per part (r, mu) and command:
+
+1. *Classes.* Designs with the same l1, l2, w and R = r2/r1 give the same map (MODEL 10, 11:
+   configurations depend on the pulley radii only through R; energies scale with r1, which
+   changes no descent): they form one class, computed once, through its *representative*, the
+   first of its designs in store order.
+2. *Contenders*, measured in the run: first the *floor*, the `min_contenders` best classes by
+   screened caging area, is computed at h/2; D, the largest change of a floor class from its
+   screened value, says how far the screening is off for this part. Then every class whose
+   screened caging area is at least the floor's best h/2 value minus CHANGE_FACTOR x D
+   contends too, but never one below (1 - bound) times the part's best screened caging area:
+   `bound` (the config's) caps the part's bound (stored: `refine_bound_used`). A part whose best
+   screened caging area is 0 is not refined (status `not_refined`).
+3. *Levels.* The contenders still in the running are recomputed at h/2, h/4, ..., h/2**levels
+   with the config's accuracy settings otherwise unchanged (trajectory method included). At
+   level k a class's value is its caging area there and its *error estimate* is the change from
+   level k-1 (the screened value for k = 1). Let b be the class of largest value (first in store
+   order among equal values). A class stays in the running while its value plus its error
+   reaches b's value minus b's error; the others are *eliminated* (separated from the best).
+   The part is *certified* when b alone is left: its lead over every other contender exceeds the
+   change between the last two levels of both. At the level cap the classes left are the part's
+   *near-tie set*, each with its value and error estimate.
+4. *Bound check.* The contender bound is an assumption about how far the screening can be off;
+   each part checks it against its own run: it *held* when the best's value minus its error
+   exceeds every non-contender's screened value plus the largest rise (or least fall) of any
+   contender from its screened value to its finest one (`refine_bound_held`).
+
+Every map's caging area depends on that map alone, and the plan of each level is a pure function
+of the screened values and the earlier levels' values, so the result does not depend on how the
+work was cut or interrupted. Work files: each batch of maps of a level is written atomically into
+a work directory beside the store (`STORE.refine/`, `sweep.rundir.refine_dir`); a rerun loads
+the finished batches and computes the rest. The refined values are then added to the store
+(`sweep.store.add_refinement`), which is rewritten atomically.
+
+Imports: scene, batch (one map's summaries at a given h), store, rundir, runner (threads),
+outputs. `sweep run` and `sweep merge` call `refine_store` after writing their store.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+import math
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numba
+import numpy as np
+
+from . import __version__, batch
+from .outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
+from .rundir import read_json, refine_dir
+from .runner import numba_threads
+from .scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
+from .schema import (REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX)
+from .store import StoreError, add_refinement, read_store, scene_from_frozen
+
+CAGING_AREA = SUMMARY_INDEX["caging_area"]
+ROLE = {name: code for code, name in enumerate(REFINE_ROLE_MEANINGS)}
+STATUS = {name: code for code, name in enumerate(REFINE_STATUS_MEANINGS)}
+#: Significant digits of R = r2/r1 that decide equal-R classes (0.02/0.06 is 0.33333333333333337
+#: in floating point, 0.06/0.18 is 0.3333333333333333).
+R_DIGITS = 12
+#: Grid points per work file (the maps of a level, whole cells): a few seconds of compute on two
+#: cores, so a kill loses little.
+BATCH_POINTS = 10_000_000
+WORK_MANIFEST = "manifest.json"
+
+
+class RefineError(StoreError):
+    """A store that cannot be refined (CLI: one line, exit code 2)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Designs, parts, classes
+# ---------------------------------------------------------------------------------------------
+def design_table(scene: Scene) -> np.ndarray:
+    """Every design (l1, l2, r1, r2, w) in store order (w fastest): float64 (n_designs, 5)."""
+    return np.array(list(itertools.product(*(scene.values[k] for k in DESIGN_KEYS))),
+                    dtype=np.float64).reshape(-1, len(DESIGN_KEYS))
+
+
+def part_table(scene: Scene) -> np.ndarray:
+    """Every part (r index, mu index, command index) in store order: int64 (n_parts, 3)."""
+    return np.array(list(itertools.product(range(len(scene.values["r"])),
+                                           range(len(scene.values["mu"])),
+                                           range(len(scene.commands)))),
+                    dtype=np.int64).reshape(-1, 3)
+
+
+def equal_r_classes(designs: np.ndarray) -> np.ndarray:
+    """Per design, the flat index of its class's representative: the first design in store
+    order with the same l1, l2, w and R = r2/r1 (to R_DIGITS significant digits)."""
+    rep: dict = {}
+    out = np.empty(designs.shape[0], dtype=np.int64)
+    for k, (l1, l2, r1, r2, w) in enumerate(designs):
+        key = (l1, l2, w, float(f"{r2 / r1:.{R_DIGITS}g}"))
+        out[k] = rep.setdefault(key, k)
+    return out
+
+
+def screened_matrix(scene: Scene, caging_area: np.ndarray) -> np.ndarray:
+    """The store's caging_area (store dims) as (n_designs, n_parts), parts as `part_table`."""
+    n_designs = math.prod(len(scene.values[k]) for k in DESIGN_KEYS)
+    return np.asarray(caging_area, dtype=np.float64).reshape(n_designs, -1)
+
+
+def select_contenders(reps: np.ndarray, values: np.ndarray, settings: RefineSettings,
+                      floor_only: bool = False) -> np.ndarray:
+    """Representatives of the contending classes of one part (sorted, store order): every class
+    whose screened value is at least (1 - bound) times the best, and the `min_contenders` best
+    (store order among equal values); with `floor_only` those best only. Empty when the best
+    value is not positive."""
+    v = values[reps]
+    best = float(v.max()) if v.size else 0.0
+    if not best > 0.0:
+        return np.zeros(0, dtype=np.int64)
+    order = np.argsort(-v, kind="stable")
+    keep = set(order[:settings.min_contenders].tolist())
+    if not floor_only:
+        keep.update(np.flatnonzero(v >= (1.0 - settings.bound) * best).tolist())
+    return np.sort(reps[sorted(keep)])
+
+
+#: Step 2: how many times the floor's largest change from screening to h/2 a class may be below
+#: the floor's best at h/2 and still contend. A method whose error at least halves per level
+#: changes a value by at most 2 D from screening to the limit (D + D/2 + ...), the best's by at
+#: most D after h/2: a class below the best's h/2 value by more than 3 D cannot overtake it.
+CHANGE_FACTOR = 3.0
+
+
+def contender_cut(best0: float, now: np.ndarray, screened: np.ndarray, bound: float) -> float:
+    """The screened caging area a class needs to contend in one part: the floor's best value at
+    h/2 minus CHANGE_FACTOR times the floor's largest change from screening (`now` and
+    `screened`: the floor's values), but never below (1 - bound) times the screened best."""
+    change = float(np.max(np.abs(now - screened)))
+    return max((1.0 - bound) * best0, float(np.max(now)) - CHANGE_FACTOR * change)
+
+
+def _keys(classes, parts) -> np.ndarray:
+    """(part, representative) of every class of `classes[p]` for p in parts: int64 (n, 2)."""
+    return np.array([(p, int(d)) for p in parts for d in classes[p]],
+                    dtype=np.int64).reshape(-1, 2)
+
+
+def separate(now: np.ndarray, previous: np.ndarray) -> tuple[int, np.ndarray, np.ndarray]:
+    """One level of one part: values `now` and the previous level's, per class in store order.
+    Returns (position of the best, error estimates |now - previous|, mask of the classes still
+    in the running: value + error >= best value - best error; the best always stays)."""
+    err = np.abs(now - previous)
+    b = int(np.argmax(now))                    # first of the largest: store order
+    keep = now + err >= now[b] - err[b]
+    keep[b] = True
+    return b, err, keep
+
+
+def lead(now: np.ndarray, b: int) -> float:
+    """The best value's lead over the runner-up among the classes computed at a level; NaN when
+    the best was computed alone."""
+    if now.size < 2:
+        return math.nan
+    return float(now[b] - np.max(np.delete(now, b)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Maps at a level
+# ---------------------------------------------------------------------------------------------
+def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Per map (part, design) of `keys`, its cell: (command, l1, l2, r1, r2, r index, mu index)
+    as a row of float64 (n, 7); maps of one cell share the finger field."""
+    p, d = parts[keys[:, 0]], designs[keys[:, 1]]
+    return np.column_stack([p[:, 2], d[:, :4], p[:, 0], p[:, 1]]).astype(np.float64)
+
+
+def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
+                 h: float) -> np.ndarray:
+    """Caging area of the maps `keys` ((n, 2): part, design) at spacing h, with the scene's
+    limits, accuracy and effects, by the sweep's own path (`batch.summarize_cells`): each cell
+    (design without w, part, command) once, at the widths of its maps in `keys` (one finger
+    field serves them all); one call per (command, set of widths), its cells in parallel in the
+    order of their first map in `keys`. (Measured against one call per width and against whole
+    cells at every width: docs/performance.md.)"""
+    out = np.empty(keys.shape[0])
+    index: dict = {}
+    which = np.array([index.setdefault(tuple(c), len(index))
+                      for c in cell_keys(designs, parts, keys)], dtype=np.int64)
+    cells = np.array(list(index), dtype=np.float64).reshape(-1, 7)
+    w_index = keys[:, 1] % scene.widths.size           # designs in store order: w fastest
+    widths_of = [set() for _ in range(cells.shape[0])]
+    for c, wi in zip(which, w_index):
+        widths_of[c].add(int(wi))
+    groups: dict = {}
+    for c in range(cells.shape[0]):
+        groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
+    # A call with fewer cells than threads leaves threads idle: the small groups of a command
+    # run as one call at the union of their widths (an extra width costs a map's outcomes,
+    # far less than its finger field).
+    threads = numba.get_num_threads()
+    merged: dict = {}
+    for (ci, ws), rows in list(groups.items()):
+        if len(rows) < 2 * threads:
+            del groups[(ci, ws)]
+            union, members = merged.get(ci, (set(), []))
+            merged[ci] = (union | set(ws), members + rows)
+    for ci, (union, rows) in merged.items():
+        groups.setdefault((ci, tuple(sorted(union))), []).extend(sorted(rows))
+    r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
+    calls = []
+    for (ci, ws), rows in groups.items():
+        # Numba's OpenMP layer gives each thread one contiguous block of a prange's cells (no
+        # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
+        # of `threads` cells of similar cost, largest first, keep every thread busy.
+        cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
+                                r_vals[int(cells[c, 5])], h) for wi in ws) for c in rows]
+        rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
+        calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
+    for ci, ws, rows in calls:
+        c = cells[rows]
+        res = batch.summarize_cells(
+            np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
+            scene.widths[list(ws)], scene.commands[ci], h, scene.limits, scene.accuracy,
+            scene.effects)
+        at = np.full(cells.shape[0], -1)
+        at[rows] = np.arange(len(rows))
+        mine = np.flatnonzero(at[which] >= 0)
+        column = {wi: k for k, wi in enumerate(ws)}
+        out[mine] = res[at[which[mine]], [column[int(wi)] for wi in w_index[mine]], CAGING_AREA]
+    return out
+
+
+def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
+                  h: float) -> list[np.ndarray]:
+    """A level's maps in a fixed order, cut into batches of whole cells (all their maps of the
+    level) of at most BATCH_POINTS grid points (at least one cell each). Cells with the same
+    widths are consecutive (`compute_maps` makes one kernel call of them), largest first."""
+    cells, which = np.unique(cell_keys(designs, parts, keys), axis=0, return_inverse=True)
+    which = which.reshape(-1)
+    r_vals = scene.values["r"]
+    cost = np.zeros(cells.shape[0], dtype=np.int64)
+    widths = np.zeros(cells.shape[0], dtype=np.int64)   # bit mask of the cell's widths
+    for c, (_, d) in zip(which, keys):
+        l1, l2, _, _, w = designs[d]
+        cost[c] += grid_points(l1, l2, w, r_vals[int(cells[c, 5])], h)
+        widths[c] |= 1 << int(d % scene.widths.size)
+    # cells with the same widths together (one kernel call for them), largest first
+    order = np.lexsort((np.arange(cells.shape[0]), -cost, widths, cells[:, 0]))
+    batches, current, points = [], [], 0
+    for c in order:
+        if current and points + cost[c] > BATCH_POINTS:
+            batches.append(current)
+            current, points = [], 0
+        current.append(c)
+        points += int(cost[c])
+    if current:
+        batches.append(current)
+    out = []
+    for b in batches:
+        rank = {c: i for i, c in enumerate(b)}
+        rows = [i for i in np.flatnonzero(np.isin(which, b))]
+        rows.sort(key=lambda i: (rank[which[i]], keys[i, 1], keys[i, 0]))
+        out.append(keys[rows])
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Work directory: one file per finished batch
+# ---------------------------------------------------------------------------------------------
+def refine_identity(scene: Scene, settings: RefineSettings) -> dict:
+    """What decides the refined values: the config (its hash), the refinement settings, the
+    sweep version. A store refined under another identity is refined again."""
+    return dict(config_hash=scene.config_hash, sweep_version=__version__,
+                refine=settings.as_dict())
+
+
+def batch_path(work: Path, label: str, index: int) -> Path:
+    return work / f"level-{label}-batch-{index:05d}.npz"
+
+
+def _save_batch(path: Path, keys: np.ndarray, values: np.ndarray, seconds: float) -> None:
+    buf = io.BytesIO()
+    np.savez(buf, keys=keys, values=values, seconds=np.float64(seconds))
+    write_bytes_atomic(path, buf.getvalue())
+
+
+def _load_batch(path: Path, keys: np.ndarray):
+    """(values, seconds) of a finished batch file holding exactly `keys`, else None."""
+    try:
+        with np.load(path) as z:
+            if z["keys"].shape == keys.shape and np.array_equal(z["keys"], keys):
+                return z["values"].copy(), float(z["seconds"])
+    except (OSError, ValueError, KeyError):
+        pass
+    return None
+
+
+def prepare_work_dir(work: Path, identity: dict) -> None:
+    """Create the work directory, or empty it when it holds another refinement's files. The
+    caller holds the store's lock, so every temporary in it is a killed writer's."""
+    from .outputs import write_json_atomic
+
+    manifest = work / WORK_MANIFEST
+    if manifest.exists():
+        try:
+            have = read_json(manifest)
+        except StoreError:
+            have = None
+        if have == identity:
+            remove_stale_temporaries(work, owned=True)
+            return
+        print(f"sweep: discarding the refinement work of another config or settings in {work}",
+              file=sys.stderr)
+        shutil.rmtree(work)
+    write_json_atomic(manifest, identity)
+
+
+# ---------------------------------------------------------------------------------------------
+# The stage
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class Refinement:
+    """The refined answer of every part (arrays in `part_table` / store design order)."""
+
+    settings: RefineSettings
+    h: float                            # screening spacing
+    reps: np.ndarray                    # (n_designs,) representative of each design's class
+    value: np.ndarray                   # (n_designs, n_parts) caging area at the finest level
+    level: np.ndarray                   # (n_designs, n_parts) int8: that level (0: screened)
+    error: np.ndarray                   # (n_designs, n_parts) error estimate there, NaN if none
+    role: np.ndarray                    # (n_designs, n_parts) int8, REFINE_ROLE_MEANINGS
+    status: np.ndarray                  # (n_parts,) int8, REFINE_STATUS_MEANINGS
+    finest_level: np.ndarray            # (n_parts,) int8
+    margin: np.ndarray                  # (n_parts,) lead of the best at the finest level
+    n_contenders: np.ndarray            # (n_parts,) int32: contending designs (all class members)
+    bound_held: np.ndarray              # (n_parts,) bool: the bound check (module docstring)
+    bound_used: np.ndarray              # (n_parts,) the part's contender bound (step 2)
+    level_maps: list = field(default_factory=list)      # maps computed per level (1..)
+    level_seconds: list = field(default_factory=list)   # compute seconds per level
+    computed_maps: int = 0              # maps computed by this invocation
+
+    @property
+    def seconds(self) -> float:
+        return float(sum(self.level_seconds))
+
+    def finest_h(self) -> np.ndarray:
+        return np.where(self.finest_level > 0, self.h / 2.0 ** self.finest_level.astype(float),
+                        self.h)
+
+    def counts(self) -> dict:
+        return {name: int(np.sum(self.status == code)) for name, code in STATUS.items()}
+
+
+def refine_scene(scene: Scene, screened: np.ndarray, settings: RefineSettings, work: Path,
+                 progress: bool = False) -> Refinement:
+    """Run (or resume) the refinement of every part from the screened caging areas
+    (n_designs, n_parts); work files in `work` (created; the caller holds the store's lock)."""
+    designs, parts = design_table(scene), part_table(scene)
+    reps = equal_r_classes(designs)
+    n_designs, n_parts = screened.shape
+    if n_designs != designs.shape[0] or n_parts != parts.shape[0]:
+        raise RefineError(f"screened values of shape {screened.shape} for {designs.shape[0]} "
+                          f"designs and {parts.shape[0]} parts")
+    prepare_work_dir(work, refine_identity(scene, settings))
+    class_reps = np.unique(reps)
+    status = np.zeros(n_parts, dtype=np.int8)
+    finest = np.zeros(n_parts, dtype=np.int8)
+    margin = np.full(n_parts, np.nan)
+    n_contenders = np.zeros(n_parts, dtype=np.int32)
+    value = np.full((n_designs, n_parts), np.nan)
+    level = np.zeros((n_designs, n_parts), dtype=np.int8)
+    error = np.full((n_designs, n_parts), np.nan)
+    role = np.full((n_designs, n_parts), ROLE["screened"], dtype=np.int8)
+    latest = screened.copy()               # per representative: value at its latest level
+    bound_used = np.full(n_parts, np.nan)
+    out = Refinement(settings, scene.h, reps, value, level, error, role, status, finest, margin,
+                     n_contenders, np.zeros(n_parts, dtype=bool), bound_used)
+    # Level 1 in two passes (step 2 of the module docstring): the floor, then the classes its
+    # changes call for.
+    h1 = settings.level_h(scene.h, 1)
+    floor = [select_contenders(class_reps, screened[:, p], settings, floor_only=True)
+             for p in range(n_parts)]
+    got, seconds, computed = _run_level(scene, designs, parts, _keys(floor, range(n_parts)), h1,
+                                        "1a", work, progress)
+    alive = []
+    for p in range(n_parts):
+        c = floor[p]
+        if c.size:
+            best0 = float(screened[c, p].max())
+            now = np.array([got[(p, int(d))] for d in c])
+            cut = contender_cut(best0, now, screened[c, p], settings.bound)
+            bound_used[p] = 1.0 - cut / best0
+            c = np.union1d(c, class_reps[screened[class_reps, p] >= cut])
+        alive.append(c)
+        n_contenders[p] = int(np.isin(reps, c).sum())
+        role[np.isin(reps, c), p] = ROLE["eliminated"]
+        status[p] = STATUS["near_tie"] if c.size else STATUS["not_refined"]
+    rest = [np.setdiff1d(alive[p], floor[p]) for p in range(n_parts)]
+    got_b, seconds_b, computed_b = _run_level(scene, designs, parts, _keys(rest, range(n_parts)),
+                                              h1, "1b", work, progress)
+    got.update(got_b)
+    contenders = [c.copy() for c in alive]
+    active = [p for p in range(n_parts) if alive[p].size]
+    for k in range(1, settings.levels + 1):
+        if not active:
+            break
+        keys = _keys(alive, active)
+        if k > 1:
+            got, seconds, computed = _run_level(scene, designs, parts, keys,
+                                                settings.level_h(scene.h, k), str(k), work,
+                                                progress)
+        else:
+            seconds, computed = seconds + seconds_b, computed + computed_b
+        out.level_maps.append(int(keys.shape[0]))
+        out.level_seconds.append(seconds)
+        out.computed_maps += computed
+        still = []
+        for p in active:
+            c = alive[p]
+            now = np.array([got[(p, int(d))] for d in c])
+            b, err, keep = separate(now, latest[c, p])
+            latest[c, p] = now
+            for j, d in enumerate(c):
+                members = reps == d
+                value[members, p] = now[j]
+                level[members, p] = k
+                error[members, p] = err[j]
+            finest[p] = k
+            margin[p] = lead(now, b)
+            alive[p] = c[keep]
+            if alive[p].size == 1:
+                status[p] = STATUS["certified"]
+            elif k < settings.levels:
+                still.append(p)
+        active = still
+    for p in range(n_parts):
+        if alive[p].size:
+            for d in alive[p]:
+                role[reps == d, p] = ROLE["near_tie"]
+            # the best: the largest value at the finest level (first in store order)
+            best = alive[p][int(np.argmax(latest[alive[p], p]))]
+            role[reps == best, p] = ROLE["best"]
+            out.bound_held[p] = bound_held(class_reps, contenders[p], screened[:, p],
+                                           latest[:, p], value[best, p] - error[best, p])
+    return out
+
+
+def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
+               latest: np.ndarray, best_low: float) -> bool:
+    """The bound check of one part: `best_low` (the best's value minus its error) exceeds every
+    non-contender's screened value plus the largest change of a contender from its screened
+    value to its latest (finest) one. True when every class contended."""
+    out = np.setdiff1d(reps, contenders)
+    if not out.size:
+        return True
+    drift = float(np.max(latest[contenders] - screened[contenders]))
+    return bool(best_low > float(np.max(screened[out])) + drift)
+
+
+def _run_level(scene, designs, parts, keys, h, label, work, progress):
+    """The maps `keys` of a level (`label`: "1a", "1b", "2", ...): finished batches loaded, the
+    rest computed and saved. Returns ({(part, design): caging area}, compute seconds of every
+    batch, maps computed now)."""
+    if not keys.shape[0]:
+        return {}, 0.0, 0
+    batches = level_batches(scene, designs, parts, keys, h)
+    got: dict = {}
+    seconds, computed = 0.0, 0
+    todo = []
+    for b, bk in enumerate(batches):
+        found = _load_batch(batch_path(work, label, b), bk)
+        if found is None:
+            todo.append(b)
+            continue
+        got.update(zip(map(tuple, bk.tolist()), found[0].tolist()))
+        seconds += found[1]
+    bar = _progress(len(keys), len(keys) - sum(len(batches[b]) for b in todo),
+                    f"refine h={h:g}", progress)
+    try:
+        for b in todo:
+            bk = batches[b]
+            t = time.perf_counter()
+            v = compute_maps(scene, designs, parts, bk, h)
+            dt = time.perf_counter() - t
+            _save_batch(batch_path(work, label, b), bk, v, dt)
+            got.update(zip(map(tuple, bk.tolist()), v.tolist()))
+            seconds += dt
+            computed += len(bk)
+            bar.update(len(bk))
+    finally:
+        bar.close()
+    return got, seconds, computed
+
+
+def _progress(total: int, initial: int, desc: str, enabled: bool):
+    from tqdm import tqdm
+
+    tty = sys.stderr.isatty()
+    return tqdm(total=total, initial=initial, desc=desc, unit="map", disable=not enabled,
+                mininterval=0.5 if tty else 30.0, file=sys.stderr, dynamic_ncols=True)
+
+
+# ---------------------------------------------------------------------------------------------
+# A store
+# ---------------------------------------------------------------------------------------------
+@dataclass
+class RefineResult:
+    path: Path
+    refinement: Refinement | None   # None when the store was already refined
+    wall_seconds: float
+    screening_seconds: float        # the store's compute_seconds
+
+    @property
+    def already_done(self) -> bool:
+        return self.refinement is None
+
+
+def store_settings(view) -> RefineSettings | None:
+    """The refinement settings a store was refined with (None: not refined)."""
+    a = view.attrs
+    if "refine_levels" not in a:
+        return None
+    return RefineSettings(levels=int(a["refine_levels"]), bound=float(a["refine_bound"]),
+                          min_contenders=int(a["refine_min_contenders"]))
+
+
+def is_refined(view, scene: Scene, settings: RefineSettings) -> bool:
+    """The store holds the refinement of this config under these settings."""
+    return (view.attrs.get("config_hash") == scene.config_hash and view.refine and
+            view.attrs.get("refine_sweep_version") == __version__ and
+            store_settings(view) == settings)
+
+
+def refine_store(path: Path, settings: RefineSettings | None = None, threads: int | None = None,
+                 progress: bool = True, restart: bool = False, wait: bool = False,
+                 locked: bool = False, force: bool = False) -> RefineResult:
+    """Refine the results store `path` in place (rewritten atomically) with `settings` (default:
+    the store's config's `refine:`, else RefineSettings()); resumes from `STORE.refine/`. A store
+    already refined with these settings is left alone unless `force`. `locked`: the caller holds
+    the store's lock."""
+    path = Path(path)
+    t0 = time.perf_counter()
+    lock = contextlib.nullcontext() if locked else claim_output(path, overwrite=True, wait=wait)
+    with lock:
+        view = read_store(path)
+        scene = scene_from_frozen(view.frozen)
+        settings = settings or scene.refine or RefineSettings()
+        screening = float(view.attrs.get("compute_seconds", math.nan))
+        work = refine_dir(path)
+        if not force and is_refined(view, scene, settings):
+            shutil.rmtree(work, ignore_errors=True)
+            return RefineResult(path, None, time.perf_counter() - t0, screening)
+        if "caging_area" not in view.variables:
+            raise RefineError(f"{path}: no caging_area variable to refine")
+        if restart:
+            shutil.rmtree(work, ignore_errors=True)
+        screened = screened_matrix(scene, view.variables["caging_area"])
+        with numba_threads(threads):
+            ref = refine_scene(scene, screened, settings, work, progress)
+        wall = time.perf_counter() - t0
+        add_refinement(path, scene, ref, dict(
+            refine_sweep_version=__version__, refine_wall_seconds=wall,
+            refine_compute_seconds=ref.seconds,
+            refine_fraction_of_screening=(ref.seconds / screening if screening > 0 else
+                                          math.nan)))
+        shutil.rmtree(work, ignore_errors=True)
+    return RefineResult(path, ref, wall, screening)
+
+
+# ---------------------------------------------------------------------------------------------
+# Reading the refined ranking (sweep top, sweep report)
+# ---------------------------------------------------------------------------------------------
+def ranking(role: np.ndarray, value: np.ndarray, screened: np.ndarray) -> np.ndarray:
+    """Flat design indices of one part, best first: the designs still in the running at the
+    finest level (best, then the near-tie set), then the eliminated contenders, then the rest;
+    inside each group by caging area at the finest level each design reached (the screened
+    value for the rest), store order among equal values."""
+    group = np.where(role >= ROLE["near_tie"], 2, np.where(role == ROLE["eliminated"], 1, 0))
+    v = np.where(np.isnan(value), screened, value)
+    v = np.where(np.isnan(v), -np.inf, v)
+    return np.lexsort((np.arange(v.size), -v, -group))
+
+
+def designs_of_coords(coords: dict) -> np.ndarray:
+    """The design table (as `design_table`) from a store's coordinates."""
+    return np.array(list(itertools.product(*(coords[k] for k in DESIGN_KEYS))),
+                    dtype=np.float64).reshape(-1, len(DESIGN_KEYS))
+
+
+@dataclass
+class PartOutcome:
+    """One part's refined answer, as read from a store (`part_outcome`)."""
+
+    status: str                 # REFINE_STATUS_MEANINGS
+    finest_h: float
+    margin: float               # lead of the best over the runner-up at the finest level
+    best: int                   # flat design index: the first design of the best's class
+    n_best: int                 # designs of the best's equal-R class (they tie exactly)
+    members: list               # the final set, best first: [best] when certified
+    value: np.ndarray           # per design: refined caging area (NaN: screened only)
+    error: np.ndarray           # per design: its error estimate
+    bound_held: bool = True     # the part's bound check (module docstring)
+
+    @property
+    def certified(self) -> bool:
+        return self.status == "certified"
+
+
+def part_outcome(reps: np.ndarray, role: np.ndarray, value: np.ndarray, error: np.ndarray,
+                 status: int, finest_h: float, margin: float,
+                 bound_held: bool = True) -> PartOutcome:
+    """A part's outcome from its refinement variables (per-design arrays flat in store order,
+    per-part scalars). `reps`: `equal_r_classes` of the store's designs."""
+    alive = np.flatnonzero(role >= ROLE["near_tie"])
+    members = [int(d) for d in alive if reps[d] == d]
+    members.sort(key=lambda d: (-value[d], d))
+    best = int(np.flatnonzero(role == ROLE["best"])[0]) if (role == ROLE["best"]).any() else -1
+    return PartOutcome(REFINE_STATUS_MEANINGS[int(status)], float(finest_h), float(margin), best,
+                       int(np.sum(role == ROLE["best"])), members, value, error,
+                       bool(bound_held))
