@@ -40,6 +40,7 @@ from .report import (
     ReportError,
     StoreData,
     _compute_best_map,
+    _design_text,
     _lattice_edges,
     _png,
     best_caging_rows,
@@ -142,11 +143,28 @@ def best_rows(st1: StoreData, st2: StoreData) -> list[dict]:
             row.update({f"{k}_{s}": best[k] for k in DESIGN_DIMS + ("R", "Lambda", "n_tied")})
             row[f"n_caged_crossed_{s}"] = best["n_caged_crossed"]
             row[f"n_caged_points_{s}"] = best["n_caged_points"]
+            for k in REFINED_KEYS:  # a refined store: the refined best and what backs it
+                if k in best:
+                    row[f"{k}_{s}"] = best[k]
+            row[f"near_tie_{s}"] = best.get("near_tie", [])
         row["same_gripper"] = gripper(x) == gripper(y)
         row["Lambda_2_of_best_1"] = float(st2.per_design("Lambda", ri, mi)[x["design_index"]])
         row["Lambda_1_of_best_2"] = float(st1.per_design("Lambda", ri, mi)[y["design_index"]])
         rows.append(row)
     return rows
+
+
+REFINED_KEYS = ("refined_caging_area", "refined_error", "margin", "finest_h", "certification")
+
+
+def best_columns(st1: StoreData, st2: StoreData) -> list[str]:
+    """BEST_COLUMNS, with each refined store's refinement columns after its Lambda."""
+    cols = list(BEST_COLUMNS)
+    for s, st in (("2", st2), ("1", st1)):
+        if st.refined:
+            at = cols.index(f"Lambda_{s}") + 1
+            cols[at:at] = [f"{k}_{s}" for k in REFINED_KEYS]
+    return cols
 
 
 def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
@@ -464,7 +482,7 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     rep = make_tables(st1, st2, top_k)
     write, finish = report_files(Path(out_dir), comparison_identity(st1, st2, top_k), rep.files)
 
-    write("best_designs.csv", csv_bytes(rep.best, BEST_COLUMNS))
+    write("best_designs.csv", csv_bytes(rep.best, best_columns(st1, st2)))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
     write("representative_designs.csv", csv_bytes(rep.representatives, REP_COLUMNS))
     if st1.manipulation:
@@ -615,8 +633,29 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
           "at equal R close alike (MODEL 11). `Lambda_2_of_best_1`: scene 2's Λ of scene 1's "
           "best design (and the other way round).",
           "- Maps are recomputed with `compute_map` at each store's own settings."]
+    if st1.refined or st2.refined:
+        L += ["- Refined stores: the best design of a part is the refined one (`sweep report "
+              "STORE` says how the contenders are chosen). **Certification:** a part's best "
+              "design is certified when its lead over every other contender exceeds the change "
+              "of both between the last two grid spacings, so a finer grid is not expected to "
+              "change it; otherwise the designs still in the running form the part's near-tie "
+              "set, each with its value and error estimate."]
     L += ["", "## 1. Best caging design per part (`best_designs.png`, `best_designs.csv`)", "",
-          md_table(rep.best, BEST_COLUMNS)]
+          md_table(rep.best, best_columns(st1, st2))]
+    for s, st in (("1", st1), ("2", st2)):
+        if not st.refined:
+            continue
+        L += ["", f"Scene {s}'s final sets (the certified design, or every member of the "
+              "near-tie set with its value and error estimate at its finest h):", ""]
+        for row in rep.best:
+            members = row[f"near_tie_{s}"]
+            if not members:
+                L.append(f"- {_part(row)}: {row[f'certification_{s}']}.")
+                continue
+            L.append(f"- {_part(row)}: {row[f'certification_{s}']} at h = "
+                     f"{fmt(row[f'finest_h_{s}'])}: "
+                     + "; ".join(f"{_design_text(m)} {fmt(m['refined_caging_area'])} ± "
+                                 f"{fmt(m['refined_error'])}" for m in members) + ".")
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, `caging_vs_tip.csv`, "
           "`representative_designs.csv`)", "",
           md_table(rep.caging_tip_summary, CT_SUMMARY_COLUMNS), "",

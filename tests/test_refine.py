@@ -395,6 +395,18 @@ def test_report_uses_the_refined_ranking(tmp_path):
     text = (out / "report.md").read_text()
     assert "**Certification:**" in text and "refinement.csv" in text
     assert (out / "refinement.csv").exists()
+    # the two-scene report (issue P12) reads the same refined best designs, per scene
+    twin = tmp_path / "twin.h5"
+    twin.write_bytes(store.read_bytes())
+    res = invoke("report", store, twin, "--out", tmp_path / "rep2")
+    assert res.exit_code == 0, res.output
+    with open(tmp_path / "rep2" / "best_designs.csv", newline="") as f:
+        pair = list(csv.DictReader(f))
+    for s in ("1", "2"):
+        assert [tuple(float(r[f"{k}_{s}"]) for k in DESIGN) for r in pair] == \
+            [tuple(float(x) for x in d) for d in best_rows]
+        assert [r[f"certification_{s}"] for r in pair] == [r["certification"] for r in rows]
+    assert "**Certification:**" in (tmp_path / "rep2" / "report.md").read_text()
 
 
 def test_chunked_run_refines_through_merge_or_refine(refined, tmp_path):
