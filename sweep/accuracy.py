@@ -271,6 +271,8 @@ class Study:
     convergence: list = field(default_factory=list)  # one dict per (method, h): sample sums
     witnesses: list = field(default_factory=list)    # one dict per (witness map, method, h)
     n_maps_convergence: int = 0
+    refinement: list = field(default_factory=list)   # per part: the refined answer vs reference
+    refinement_cost: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -389,7 +391,8 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
     work.mkdir(parents=True, exist_ok=True)
     settings, _ = ladder(scene)
     reference, reference_coarse = references(scene)
-    total = len(settings) + 3 + len(TRAJECTORY_METHODS) * CONVERGENCE_HALVINGS
+    total = (len(settings) + 3 + len(TRAJECTORY_METHODS) * CONVERGENCE_HALVINGS
+             + (scene.refine is not None))
     all_cells = design_cells(scene)
     default = Setting("default", scene.h, scene.accuracy)
     full = cached(work / "default_sweep.npz", lambda: timed_areas(scene, all_cells, default))
@@ -434,10 +437,56 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
         best.append((part, *picks))
     groups = convergence_groups(scene, full["caging_area"], witnesses)
     convergence, witness_rows = run_convergence(scene, groups, work, tell)
+    refined, refine_cost = [], {}
+    if scene.refine is not None:
+        config_rung = results[Setting("h", scene.h, scene.accuracy).key]
+        refined, refine_cost = refined_against_reference(
+            scene, cells4, config_rung, results[reference.key]["caging_area"], work)
+        tell("refinement of the sample")
     seconds = float(full["seconds"]) + sum(float(v["seconds"]) for v in results.values())
     seconds += sum(r["seconds_per_map"] for r in convergence) * sum(len(g[1]) for g in groups)
+    seconds += refine_cost.get("seconds", 0.0)
     return Study(scene, n_sample, sample, n_maps, rows, reference, rec, float(full["seconds"]),
-                 seconds, best, convergence, witness_rows, sum(len(g[1]) for g in groups))
+                 seconds, best, convergence, witness_rows, sum(len(g[1]) for g in groups),
+                 refined, refine_cost)
+
+
+def refined_against_reference(scene: Scene, cells4: np.ndarray, screening: dict,
+                              reference: np.ndarray, work: Path) -> tuple[list, dict]:
+    """The config's refinement stage (`refine:`) run on the sample's designs from the config's
+    own screening of them, and its answer per part against the reference's best: *agrees*
+    (certified, and the reference's best), *contains* (a near-tie set that holds it), or
+    *differs*. Cost: the sample's screening and each refinement level, in seconds."""
+    from .refine import ROLE, refine_designs
+
+    designs = np.array([[*c, w] for c in cells4 for w in scene.widths], dtype=np.float64)
+    n_parts = len(parts(scene))
+    screened = screening["caging_area"].reshape(-1, n_parts)
+    ref = reference.reshape(-1, n_parts)
+    out = refine_designs(scene, designs, screened, scene.refine, work / "refine")
+    rows = []
+    for k, part in enumerate(parts(scene)):
+        role = out.role[:, k]
+        final = np.flatnonzero(role >= ROLE["near_tie"])
+        best = np.flatnonzero(role == ROLE["best"])
+        truth = tied_best(ref[:, k])
+        certified = bool(out.status[k] == 1)
+        if not final.size:
+            verdict = "not refined"
+        elif np.intersect1d(best if certified else final, truth).size:
+            verdict = "agrees" if certified else "contains"
+        else:
+            verdict = "differs"
+        rows.append(dict(part=part, status="certified" if certified else
+                         (f"near-tie ({len(np.unique(out.reps[final]))})" if final.size
+                          else "not refined"),
+                         finest_h=float(out.finest_h()[k]),
+                         best=tuple(designs[best[0]]) if best.size else None,
+                         reference=tuple(designs[truth[0]]), verdict=verdict))
+    cost = dict(screening_seconds=float(screening["seconds"]),
+                level_maps=list(out.level_maps), level_seconds=list(out.level_seconds),
+                seconds=out.seconds)
+    return rows, cost
 
 
 def recommend(rows: list) -> dict:
@@ -582,7 +631,55 @@ def markdown(study: Study, command_line: str, wall_seconds: float) -> str:
         "",
     ]
     lines += convergence_lines(study)
+    lines += refinement_lines(study)
     return "\n".join(lines)
+
+
+def refinement_lines(study: Study) -> list[str]:
+    """The config's refinement stage on the sample, against the reference."""
+    if not study.refinement:
+        return []
+    sc, cost = study.scene, study.refinement_cost
+    ref = sc.refine
+
+    def design(d):
+        return "-" if d is None else " ".join(
+            f"{k}={v:g}" for k, v in zip(("l1", "l2", "r1", "r2", "w"), d))
+
+    lines = [
+        "## The refinement stage on the sample",
+        "",
+        f"The config's `refine:` (levels {ref.levels}, bound {ref.bound:g}, min_contenders "
+        f"{ref.min_contenders}; docs/sweeps.md, \"Refinement\") run on the sample's "
+        f"{study.n_maps_sample // len(parts(sc))} designs from the config's own screening of "
+        "them, its answer per part against the reference's best design: *agrees* (certified, "
+        "and the reference's best), *contains* (a near-tie set that holds the reference's "
+        "best), *differs*.",
+        "",
+        "| r | mu | command | refined answer | finest h | refined best | reference best | "
+        "verdict |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for row in study.refinement:
+        r, mu, c = row["part"]
+        lines.append(f"| {r:g} | {mu:g} | {c} | {row['status']} | {row['finest_h']:g} | "
+                     f"{design(row['best'])} | {design(row['reference'])} | {row['verdict']} |")
+    verdicts = [row["verdict"] for row in study.refinement]
+    per_level = ", ".join(f"level {k + 1} (h = {sc.h / 2 ** (k + 1):g}): {n} maps, "
+                          f"{_duration(t)}" for k, (n, t) in
+                          enumerate(zip(cost["level_maps"], cost["level_seconds"])))
+    lines += [
+        "",
+        f"{verdicts.count('agrees')} parts agree, {verdicts.count('contains')} are near-tie "
+        f"sets that contain the reference's best, {verdicts.count('differs')} differ. Cost on "
+        f"the sample: screening {_duration(cost['screening_seconds'])}; refinement "
+        f"{_duration(cost['seconds'])} ({per_level}), "
+        f"{cost['seconds'] / max(cost['screening_seconds'], 1e-12):.0%} of the screening. "
+        "(The whole config's figures, where the screening covers every design: "
+        "docs/performance.md.)",
+        "",
+    ]
+    return lines
 
 
 def reference_convergence(study: Study) -> str:

@@ -42,6 +42,7 @@ outputs. `sweep run` and `sweep merge` call `refine_store` after writing their s
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import io
 import itertools
 import math
@@ -272,11 +273,16 @@ def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np
 # ---------------------------------------------------------------------------------------------
 # Work directory: one file per finished batch
 # ---------------------------------------------------------------------------------------------
-def refine_identity(scene: Scene, settings: RefineSettings) -> dict:
+def refine_identity(scene: Scene, settings: RefineSettings, designs=None) -> dict:
     """What decides the refined values: the config (its hash), the refinement settings, the
-    sweep version. A store refined under another identity is refined again."""
-    return dict(config_hash=scene.config_hash, sweep_version=__version__,
-                refine=settings.as_dict())
+    sweep version (and the designs, when they are not the config's own). A store refined under
+    another identity is refined again."""
+    out = dict(config_hash=scene.config_hash, sweep_version=__version__,
+               refine=settings.as_dict())
+    if designs is not None:
+        out["designs_sha256"] = hashlib.sha256(np.ascontiguousarray(designs).tobytes()
+                                               ).hexdigest()
+    return out
 
 
 def batch_path(work: Path, label: str, index: int) -> Path:
@@ -360,13 +366,23 @@ def refine_scene(scene: Scene, screened: np.ndarray, settings: RefineSettings, w
                  progress: bool = False) -> Refinement:
     """Run (or resume) the refinement of every part from the screened caging areas
     (n_designs, n_parts); work files in `work` (created; the caller holds the store's lock)."""
-    designs, parts = design_table(scene), part_table(scene)
+    return refine_designs(scene, design_table(scene), screened, settings, work, progress,
+                          identity=refine_identity(scene, settings))
+
+
+def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
+                   settings: RefineSettings, work: Path, progress: bool = False,
+                   identity: dict | None = None) -> Refinement:
+    """The refinement of a set of designs (n_designs, 5: l1 l2 r1 r2 w, in the store's order
+    with w fastest and the scene's widths; the scene's parts) from their screened caging areas:
+    `refine_scene` for a whole config, `sweep accuracy` for its sample."""
+    parts = part_table(scene)
     reps = equal_r_classes(designs)
     n_designs, n_parts = screened.shape
     if n_designs != designs.shape[0] or n_parts != parts.shape[0]:
         raise RefineError(f"screened values of shape {screened.shape} for {designs.shape[0]} "
                           f"designs and {parts.shape[0]} parts")
-    prepare_work_dir(work, refine_identity(scene, settings))
+    prepare_work_dir(work, identity or refine_identity(scene, settings, designs))
     class_reps = np.unique(reps)
     status = np.zeros(n_parts, dtype=np.int8)
     finest = np.zeros(n_parts, dtype=np.int8)
