@@ -207,6 +207,15 @@ def normal_force(tau, c_n, c_t):
     return float(np.linalg.solve(a, np.asarray(tau, dtype=float))[0])
 
 
+def link_enters_before_tip(dx, dy, t1, t2, l1, l2, r) -> bool:
+    """D17: the distal link's points just before the tip lie inside the disc (the link would cut
+    through the part): the tip's distance to the centre grows along the link towards the tip,
+    d/de |T - e u - d|^2 at e = 0 is -2 u . (T - d) < 0, beyond the model's slack."""
+    B, T, _, _ = finger_geometry(t1, t2, l1, l2)
+    u = unit(sub(T, B))
+    return (u[0] * (T[0] - dx) + u[1] * (T[1] - dy)) / r > RANGE_TOL
+
+
 def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol):
     """D15's tip path: t2 increasing from t2_0, t1 = tip_strike_t1(t2); the first event met
     (smallest t2) wins, ties in TIP_EVENTS order. Nodes t2_0 + n step, the last clamped to
@@ -229,9 +238,10 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         balanced = cross(tau, c_n) + mu * abs(cross(tau, c_t)) >= 0.0
         if event == "stick":             # a multiplier balances the tendon with a pushing tip
             return balanced and normal_force(tau, c_n, c_t) >= 0.0
-        if event == "lost":              # pulled off, or only a pulling tip would balance
-            return (tau[0] * c_n[0] + tau[1] * c_n[1] < 0.0
-                    or (balanced and normal_force(tau, c_n, c_t) < 0.0))
+        if event == "lost":              # pulled off, only a pulling tip would balance, or
+            return (tau[0] * c_n[0] + tau[1] * c_n[1] < 0.0        # the distal link reaches
+                    or (balanced and normal_force(tau, c_n, c_t) < 0.0)  # the tip from inside
+                    or link_enters_before_tip(dx, dy, t1, t2, l1, l2, r))  # the disc (D17)
         raise ValueError(event)
 
     n = 1
@@ -248,8 +258,11 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
     for priority, ev in enumerate(TIP_EVENTS):
         if ev not in holding:
             continue
+        tol = root_tol                   # a joint stop, and events of one step: 1e-12 (D16)
+        if len(holding) > 1 or ev in ("distal_stop", "proximal_stop"):
+            tol = min(root_tol, 1e-12)
         lo, hi = prev, node              # the event holds at hi, not at lo
-        while hi - lo > root_tol:
+        while hi - lo > tol:
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break

@@ -22,7 +22,14 @@ from .statics import joint_torques, max_torque_balance, unit_normal_to, vertex_c
 # Events along a path (bit mask), in tie-break priority order (model-notes D4). On the tip path
 # SLIP is "lost": the tip no longer holds the part.
 STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
+JOINT_STOPS = DISTAL_STOP | PROXIMAL_STOP
 MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e-6 rad
+# Bracket width of a path that ends on a joint stop, and of events that start within the same
+# step, whatever root_tol (model-notes D4, D16): the state on a stop must satisfy the stop (a
+# coarse bracket clamped onto it left a contact off the disc or a tip inside the part), and
+# the order of two events is decided by where they start, not by the bracket's resolution (a
+# stick and a slip tied at a coarse node reported a stuck contact past the tip).
+EXACT_TOL = 1e-12
 
 
 # ---------------------------------------------------------------------------------------------
@@ -103,37 +110,55 @@ def tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, mu_s):
 
 @njit(cache=True)
 def tip_node(s, dx, dy, finger, springs):
-    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes). pull = -tau . c_n
-    > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier balances the
-    tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is >= 0, from
-    tau x c_t = F (c_n x c_t) (its sign, without dividing). 0 / True where it does not meet."""
+    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes, cut). pull =
+    -tau . c_n > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier
+    balances the tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is
+    >= 0, from tau x c_t = F (c_n x c_t) (its sign, without dividing); cut = u . (T - d) / r,
+    u the distal link's direction: > 0 where the link reaches the tip from inside the disc (it
+    cuts through the part), 0 where it is tangent there (D17). 0 / True where it does not
+    meet."""
     t2 = -s
     meets, c, t1 = tip_on_disc(t2, dx, dy, finger)
     gtip = 0.0
     pull = 0.0
     pushes = True
+    cut = -1.0
     if meets:
         cn1, cn2, ct1, ct2 = tip_columns(t1, t2, dx, dy, finger)
         tau1, tau2 = joint_torques(t1, t2, finger, springs)
         gtip = tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, finger.mu_s)
         pull = -(tau1 * cn1 + tau2 * cn2)
         pushes = (tau1 * ct2 - tau2 * ct1) * (cn1 * ct2 - cn2 * ct1) >= 0.0
-    return meets, c, t1, t2, gtip, pull, pushes
+        cut = link_cut_at_tip(t1, t2, dx, dy, finger)
+    return meets, c, t1, t2, gtip, pull, pushes, cut
+
+
+@njit(cache=True)
+def link_cut_at_tip(t1, t2, dx, dy, finger):
+    """u . (T - d) / r for the distal link's direction u (D17): the link near its tip T lies
+    inside the disc iff this is > 0 (|T - e u - d|^2 = r^2 - 2 e u . (T - d) + e^2)."""
+    phi = t1 + t2
+    ux = math.cos(phi)
+    uy = math.sin(phi)
+    tx = finger.l1 * math.cos(t1) + finger.l2 * ux
+    ty = finger.l1 * math.sin(t1) + finger.l2 * uy
+    return (ux * (tx - dx) + uy * (ty - dy)) / finger.r
 
 
 @njit(cache=True)
 def tip_event_margin(event, s, dx, dy, finger, springs):
     """(holds, margin) of one tip-path event at s = -t2 (D15), as edge_event_margin."""
-    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
-    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
+    meets, c, t1, t2, gtip, pull, pushes, cut = tip_node(s, dx, dy, finger, springs)
+    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger)
 
 
 @njit(cache=True)
-def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger):
+def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger):
     """(holds, margin) of a tip-path event at a node: stick (gtip >= 0 with a pushing tip: the
     finger is in equilibrium, MODEL 5.1), distal stop (t2 >= theta2_max), proximal stop (t1 out
     of [0, pi] by more than the range slack), lost (SLIP: the tip's circle about J misses the
-    disc, the tendon pulls the tip off, or only a pulling tip would balance the tendon)."""
+    disc, the tendon pulls the tip off, only a pulling tip would balance the tendon, or the
+    distal link reaches the tip from inside the disc, D17)."""
     if event == DISTAL_STOP:  # with or without contact: the path ends at theta2_max
         margin = t2 - (finger.theta2_max - RANGE_TOL)
         return margin >= 0.0, margin
@@ -147,17 +172,18 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger):
     if event == STICK:
         return gtip >= 0.0 and pushes, gtip
     if gtip >= 0.0 and not pushes:
-        return True, max(pull, gtip)
-    return pull > 0.0, pull
+        return True, max(pull, gtip, cut - RANGE_TOL)
+    margin = max(pull, cut - RANGE_TOL)
+    return margin > 0.0, margin
 
 
 @njit(cache=True)
 def tip_path_events(s, dx, dy, finger, springs):
     """Bit mask of the tip-path events that hold at s = -t2 (D15)."""
-    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
+    meets, c, t1, t2, gtip, pull, pushes, cut = tip_node(s, dx, dy, finger, springs)
     events = 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):
-        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
+        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger)
         if holds:
             events |= event
     return events
@@ -246,10 +272,13 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
     best_t1 = -math.inf
     best_after = hi
     best_event = PROXIMAL_STOP
+    several = (events & (events - 1)) != 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
         if events & event:
-            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs,
-                                              solver.root_tol, tip)
+            tol = solver.root_tol
+            if several or (event & JOINT_STOPS) != 0:
+                tol = min(tol, EXACT_TOL)
+            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol, tip)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_after = t_after
