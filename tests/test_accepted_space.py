@@ -27,7 +27,7 @@ import os
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, note, settings
+from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
 from sweep.maps import compute_map
@@ -53,8 +53,11 @@ from sweep.model import (
 
 LONG = os.environ.get("SWEEP_LONG_PROPERTIES", "") not in ("", "0")
 EXAMPLES = 1000 if LONG else int(os.environ.get("ACCEPTED_EXAMPLES", "25"))
+# The long profile does not shrink a failure (an example costs up to seconds; the failing case
+# is printed as drawn, with its note).
 PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not LONG, database=None,
-                   suppress_health_check=list(HealthCheck))
+                   suppress_health_check=list(HealthCheck),
+                   phases=[Phase.explicit, Phase.generate] if LONG else list(Phase))
 #: Relative tolerance of "no link passes through the part": a link may come within
 #: r * LINK_TOL of the centre's circle of radius r (round-off of the closed forms, MODEL 5.5).
 LINK_TOL = 1e-9
