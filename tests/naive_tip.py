@@ -207,6 +207,13 @@ def normal_force(tau, c_n, c_t):
     return float(np.linalg.solve(a, np.asarray(tau, dtype=float))[0])
 
 
+def proximal_gap(dx, dy, t1, l1, r) -> float:
+    """D18: the proximal link's distance from the centre over r, less 1 (< 0: inside)."""
+    B = (l1 * math.cos(t1), l1 * math.sin(t1))
+    s = min(max((dx * B[0] + dy * B[1]) / (l1 * l1), 0.0), 1.0)
+    return math.hypot(dx - s * B[0], dy - s * B[1]) / r - 1.0
+
+
 def link_enters_before_tip(dx, dy, t1, t2, l1, l2, r) -> bool:
     """D17: the distal link's points just before the tip lie inside the disc (the link would cut
     through the part): the tip's distance to the centre grows along the link towards the tip,
@@ -222,7 +229,8 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
     theta2_max; each event holding at a node is bisected in its bracket down to root_tol.
 
     Returns (mode, t1, t2, why): TIP_ONLY (why: stick, distal_stop, proximal_stop; at the
-    bracket end where the event holds, t1 clamped into [0, pi]) or SLIPPED (why: miss,
+    bracket end where the event holds, t1 clamped into [0, pi]), PROXIMAL_TIP (why:
+    proximal_contact, the proximal link resting on the part, D18) or SLIPPED (why: miss,
     pull_off; at the bracket end where the tip still touches and presses)."""
     tau = (r1, r2)
 
@@ -232,8 +240,9 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         t1 = tip_strike_t1(dx, dy, t2, l1, l2, r)
         if t1 is None:
             return event == "lost"
-        if event == "proximal_stop":     # leaves [0, pi], inclusive by the model's slack (D2)
-            return t1 < -RANGE_TOL or t1 > PI + RANGE_TOL
+        if event == "proximal_stop":     # leaves [0, pi], inclusive by the model's slack (D2),
+            return (t1 < -RANGE_TOL or t1 > PI + RANGE_TOL     # or the proximal link reaches
+                    or proximal_gap(dx, dy, t1, l1, r) < -RANGE_TOL)  # the part (D18)
         c_n, c_t = tip_columns(dx, dy, t1, t2, l1, l2)
         balanced = cross(tau, c_n) + mu * abs(cross(tau, c_t)) >= 0.0
         if event == "stick":             # a multiplier balances the tendon with a pushing tip
@@ -277,8 +286,10 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         t1 = tip_strike_t1(dx, dy, lo, l1, l2, r)
         cause = "miss" if tip_strike_t1(dx, dy, hi, l1, l2, r) is None else "pull_off"
         return SLIPPED, t1, lo, cause
-    t1 = tip_strike_t1(dx, dy, hi, l1, l2, r)
-    return TIP_ONLY, min(max(t1, 0.0), PI), hi, winner
+    t1 = min(max(tip_strike_t1(dx, dy, hi, l1, l2, r), 0.0), PI)
+    if winner == "proximal_stop" and proximal_gap(dx, dy, t1, l1, r) <= RANGE_TOL:
+        return PROXIMAL_TIP, t1, hi, "proximal_contact"          # D18: resting on the part
+    return TIP_ONLY, t1, hi, winner
 
 
 # ---------------------------------------------------------------------------------------------
@@ -315,7 +326,10 @@ def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
         mode, t1, t2, why = tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min,
                                      theta2_max, reconfig_step, root_tol)
         note(why)
-        return tip_result(mode, t1, t2)
+        k1 = 0.0
+        if mode == PROXIMAL_TIP:            # D18: the proximal contact where the link touches
+            k1 = min(max(dx * math.cos(t1) + dy * math.sin(t1), 0.0), l1)
+        return tip_result(mode, t1, t2, k1)
 
     def reconfigured(t1_0):
         note("reconfigure")

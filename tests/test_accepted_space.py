@@ -300,6 +300,30 @@ def test_tip_path_ends_where_the_distal_link_reaches_the_disc_at_the_tip():
     assert math.hypot(t[0] - dx, t[1] - dy) == pytest.approx(r, rel=1e-9)   # tangent at T
 
 
+def test_tip_path_stops_where_the_proximal_link_reaches_the_part():
+    """D18: on the tip path t1 turns back up and the proximal link reached the part (found 112
+    from the centre, r = 122.2): it must rest on the part, mode proximal_tip, as the
+    reference says."""
+    from naive_tip import PROXIMAL_TIP, naive_tip_finger
+    from sweep.kernels.finger import solve_finger
+    from sweep.kernels.records import EffectBlocks, FingerModel, SolverSettings, TipContact
+
+    l1, l2, r1, r2, r = 500.0, 86.52376598789029, 10**0.05, 1.1220184543019633, 122.1733280394845
+    dx, dy = -362.1046561831639, r                       # on the palm row, over the palm
+    th2min, th2max, step, tol = 0.0, math.pi, 0.0024350084815844947, 7.047176434405351e-07
+    got = solve_finger(dx, dy, FingerModel(l1, l2, r1, r2, r, 0.0, th2min, th2max),
+                       SolverSettings(step, tol), EffectBlocks(TipContact(step, tol), None, None,
+                                                               None))
+    ref = naive_tip_finger(dx, dy, l1, l2, r1, r2, r, 0.0, th2min, th2max, step, tol)
+    assert got.mode == ref["mode"] == PROXIMAL_TIP
+    assert got.t1 == pytest.approx(ref["t1"], abs=1e-9)
+    assert got.t2 == pytest.approx(ref["t2"], abs=1e-9)
+    assert got.k1 == pytest.approx(ref["k1"], rel=1e-9)
+    j, b, t = finger_points(Design(l1, l2, r1, r2, 0.0), np.array(got.t1), np.array(got.t2), 1)
+    assert segment_distance(dx, dy, j, b) == pytest.approx(r, rel=1e-9)   # on the part
+    assert segment_distance(dx, dy, b, t) >= r * (1 - LINK_TOL)
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())

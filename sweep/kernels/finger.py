@@ -34,7 +34,8 @@ from .geometry import (
     vertex_entry,
     wrap_angle,
 )
-from .path import DISTAL_STOP, SLIP, follow_path, tip_columns, tip_on_disc, tip_polar
+from .path import (DISTAL_STOP, PROXIMAL_STOP, SLIP, follow_path, proximal_link_gap,
+                   tip_columns, tip_on_disc, tip_polar)
 from .records import FingerState, FingerStatics
 from .statics import (
     BALANCE_NEGATIVE,
@@ -197,8 +198,9 @@ def past_the_tip(tip, dx, dy, t1, t2, k2, finger, solver, springs):
 @njit(cache=True)
 def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     """D15: the tip stays on the disc while the distal closes (t2 increases from t2_start, t1
-    follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop) or the part is
-    lost (SLIPPED, where the tip last touched)."""
+    follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop), the proximal
+    link reaches the part (PROXIMAL_TIP, resting on it as on a stop, D18) or the part is lost
+    (SLIPPED, where the tip last touched)."""
     event, s, s_touching = follow_path(dx, dy, -t2_start, -finger.theta2_max, finger, solver,
                                        springs, tip)
     if event == SLIP:
@@ -210,6 +212,10 @@ def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     t1 = clamp(t1, 0.0, math.pi)
     if event == SLIP:
         return FingerState(SLIPPED, t1, t2, 0.0, finger.l2, False)
+    if event == PROXIMAL_STOP and proximal_link_gap(t1, dx, dy, finger) <= RANGE_TOL:
+        # the proximal link reached the part (D18): it rests on it, with the tip
+        k1 = clamp(dx * math.cos(t1) + dy * math.sin(t1), 0.0, finger.l1)
+        return FingerState(PROXIMAL_TIP, t1, t2, k1, finger.l2, False)
     return FingerState(TIP_ONLY, t1, t2, 0.0, finger.l2, False)
 
 

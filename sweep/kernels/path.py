@@ -115,14 +115,15 @@ def tip_node(s, dx, dy, finger, springs):
     balances the tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is
     >= 0, from tau x c_t = F (c_n x c_t) (its sign, without dividing); cut = u . (T - d) / r,
     u the distal link's direction: > 0 where the link reaches the tip from inside the disc (it
-    cuts through the part), 0 where it is tangent there (D17). 0 / True where it does not
-    meet."""
+    cuts through the part), 0 where it is tangent there (D17); gap: the proximal link's
+    clearance from the part (proximal_link_gap, D18). 0 / True where it does not meet."""
     t2 = -s
     meets, c, t1 = tip_on_disc(t2, dx, dy, finger)
     gtip = 0.0
     pull = 0.0
     pushes = True
     cut = -1.0
+    gap = proximal_link_gap(t1, dx, dy, finger)
     if meets:
         cn1, cn2, ct1, ct2 = tip_columns(t1, t2, dx, dy, finger)
         tau1, tau2 = joint_torques(t1, t2, finger, springs)
@@ -130,7 +131,17 @@ def tip_node(s, dx, dy, finger, springs):
         pull = -(tau1 * cn1 + tau2 * cn2)
         pushes = (tau1 * ct2 - tau2 * ct1) * (cn1 * ct2 - cn2 * ct1) >= 0.0
         cut = link_cut_at_tip(t1, t2, dx, dy, finger)
-    return meets, c, t1, t2, gtip, pull, pushes, cut
+    return meets, c, t1, t2, gtip, pull, pushes, cut, gap
+
+
+@njit(cache=True)
+def proximal_link_gap(t1, dx, dy, finger):
+    """|d - J B| / r - 1 for the proximal link at t1 (D18): < 0 where the link is inside the
+    part, 0 where it touches it."""
+    bx = finger.l1 * math.cos(t1)
+    by = finger.l1 * math.sin(t1)
+    s = min(max((dx * bx + dy * by) / (finger.l1 * finger.l1), 0.0), 1.0)
+    return math.hypot(dx - s * bx, dy - s * by) / finger.r - 1.0
 
 
 @njit(cache=True)
@@ -148,17 +159,18 @@ def link_cut_at_tip(t1, t2, dx, dy, finger):
 @njit(cache=True)
 def tip_event_margin(event, s, dx, dy, finger, springs):
     """(holds, margin) of one tip-path event at s = -t2 (D15), as edge_event_margin."""
-    meets, c, t1, t2, gtip, pull, pushes, cut = tip_node(s, dx, dy, finger, springs)
-    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger)
+    meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
+    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger)
 
 
 @njit(cache=True)
-def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger):
+def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger):
     """(holds, margin) of a tip-path event at a node: stick (gtip >= 0 with a pushing tip: the
     finger is in equilibrium, MODEL 5.1), distal stop (t2 >= theta2_max), proximal stop (t1 out
-    of [0, pi] by more than the range slack), lost (SLIP: the tip's circle about J misses the
-    disc, the tendon pulls the tip off, only a pulling tip would balance the tendon, or the
-    distal link reaches the tip from inside the disc, D17)."""
+    of [0, pi] by more than the range slack, or the proximal link reaching the part, which stops
+    it as its joint stop would, D18), lost (SLIP: the tip's circle about J misses the disc, the
+    tendon pulls the tip off, only a pulling tip would balance the tendon, or the distal link
+    reaches the tip from inside the disc, D17)."""
     if event == DISTAL_STOP:  # with or without contact: the path ends at theta2_max
         margin = t2 - (finger.theta2_max - RANGE_TOL)
         return margin >= 0.0, margin
@@ -167,7 +179,7 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger):
             return True, max(c - (1.0 - RANGE_TOL), -1.0 - c)
         return False, -1.0
     if event == PROXIMAL_STOP:
-        margin = max(-RANGE_TOL - t1, t1 - (math.pi + RANGE_TOL))
+        margin = max(-RANGE_TOL - t1, t1 - (math.pi + RANGE_TOL), -gap - RANGE_TOL)
         return margin > 0.0, margin
     if event == STICK:
         return gtip >= 0.0 and pushes, gtip
@@ -180,10 +192,11 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger):
 @njit(cache=True)
 def tip_path_events(s, dx, dy, finger, springs):
     """Bit mask of the tip-path events that hold at s = -t2 (D15)."""
-    meets, c, t1, t2, gtip, pull, pushes, cut = tip_node(s, dx, dy, finger, springs)
+    meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
     events = 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):
-        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, finger)
+        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap,
+                                   finger)
         if holds:
             events |= event
     return events
