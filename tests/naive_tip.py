@@ -282,6 +282,20 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         crossings.append((hi, priority, ev, lo))
     crossings.sort()
     hi, _, winner, lo = crossings[0]
+    reported = lo if winner == "lost" else hi
+    if winner != "proximal_stop" and holds("proximal_stop", reported):
+        # the proximal stop (or the part, D18) was passed within the step, unseen at the nodes:
+        # the path ends where it is first met (D16)
+        free, stop = prev, reported      # it does not hold at the free node, holds here
+        while stop - free > min(root_tol, 1e-12):
+            mid = 0.5 * (free + stop)
+            if mid <= free or mid >= stop:
+                break
+            if holds("proximal_stop", mid):
+                stop = mid
+            else:
+                free = mid
+        hi, winner = stop, "proximal_stop"
     if winner == "lost":
         t1 = tip_strike_t1(dx, dy, lo, l1, l2, r)
         cause = "miss" if tip_strike_t1(dx, dy, hi, l1, l2, r) is None else "pull_off"

@@ -324,6 +324,30 @@ def test_tip_path_stops_where_the_proximal_link_reaches_the_part():
     assert segment_distance(dx, dy, b, t) >= r * (1 - LINK_TOL)
 
 
+def test_tip_path_ends_on_a_proximal_stop_passed_within_one_step():
+    """D16: a coarse reconfig_step (0.31 rad) stepped the tip path past its proximal stop; the
+    lost tip was reported with t1 clamped to 0 and its distal link 3% of r inside the part. The
+    path ends on the stop, as the reference says."""
+    from naive_tip import naive_tip_finger
+    from sweep.kernels.finger import solve_finger
+    from sweep.kernels.records import EffectBlocks, FingerModel, SolverSettings, TipContact
+    from sweep.model import TIP_ONLY
+
+    l1 = l2 = 1e-3
+    r1, r2, r = 10.0 ** -0.99999, 0.10000230261160267, 0.00012140319836728114
+    dx, dy, step = 0.0011785573324262675, 0.0010642490643082952, 0.3077707726902199
+    th2max = math.radians(90.0)
+    got = solve_finger(dx, dy, FingerModel(l1, l2, r1, r2, r, 0.0, 0.0, th2max),
+                       SolverSettings(step, 1e-12),
+                       EffectBlocks(TipContact(step, 1e-12), None, None, None))
+    ref = naive_tip_finger(dx, dy, l1, l2, r1, r2, r, 0.0, 0.0, th2max, step, 1e-12)
+    assert got.mode == ref["mode"] == TIP_ONLY and got.t1 == ref["t1"] == 0.0
+    assert got.t2 == pytest.approx(ref["t2"], abs=1e-9)
+    j, b, t = finger_points(Design(l1, l2, r1, r2, 0.0), np.array(got.t1), np.array(got.t2), 1)
+    assert segment_distance(dx, dy, b, t) >= r * (1 - LINK_TOL)
+    assert math.hypot(t[0] - dx, t[1] - dy) == pytest.approx(r, rel=1e-9)
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())

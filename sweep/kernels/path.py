@@ -261,11 +261,12 @@ def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
 @njit(cache=True)
 def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
     """Step the path's parameter s down from s_start to the first event, bracket each event that
-    holds there, and return (event, s, s_after): the first event met (largest s; exact ties in
-    the order stick, distal stop, proximal stop, slip), where it starts, and the bracket's other
-    end (where it did not hold yet). The edge path's s is t1 (down to s_end = 0, where the
-    proximal stop holds), the tip path's -t2 (down to -theta2_max, where the distal stop
-    holds): the last node always ends the path on an event."""
+    holds there, and return (event, s, s_after, s_free): the first event met (largest s; exact
+    ties in the order stick, distal stop, proximal stop, slip), where it starts, the bracket's
+    other end (where it did not hold yet) and the last node where no event held. The edge
+    path's s is t1 (down to s_end = 0, where the proximal stop holds), the tip path's -t2 (down
+    to -theta2_max, where the distal stop holds): the last node always ends the path on an
+    event."""
     step = solver.reconfig_step
     hi = s_start
     lo = s_start
@@ -298,4 +299,4 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
                 best_event = event
     if best_t1 < s_end:  # unreachable (the last node is always an event); keep a defined answer
         best_t1 = s_end
-    return best_event, best_t1, best_after
+    return best_event, best_t1, best_after, hi
