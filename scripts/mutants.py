@@ -36,14 +36,15 @@ ROOT = Path(__file__).resolve().parents[1]
 KERNELS = "sweep/kernels"
 MUTANTS_FILE = Path(__file__).with_name("mutants.yaml")
 #: The fast kernel tests: kernels against independent references, analytic cases, invariants
-#: and the hard-case properties (about 2 minutes with compiled kernels on 2 cores; each mutant
-#: compiles its kernels first).
-FAST_TESTS = ("tests/test_hull.py", "tests/test_analytic.py", "tests/test_reference.py",
-              "tests/test_invariants.py", "tests/test_forces.py", "tests/test_golden.py",
-              "tests/test_closing_bruteforce.py", "tests/test_trajectory_methods.py",
-              "tests/test_tip_contact.py", "tests/test_collision.py", "tests/test_springs.py",
+#: and the accepted-space properties, quickest first (`-x` stops a killed mutant's run at its
+#: first failure; each mutant compiles its kernels first).
+FAST_TESTS = ("tests/test_kernel_edges.py", "tests/test_hull.py", "tests/test_analytic.py",
+              "tests/test_reference.py", "tests/test_invariants.py", "tests/test_forces.py",
+              "tests/test_golden.py", "tests/test_closing_bruteforce.py",
+              "tests/test_trajectory_methods.py", "tests/test_tip_contact.py",
+              "tests/test_collision.py", "tests/test_springs.py",
               "tests/test_naive_manipulation.py", "tests/test_manipulation.py",
-              "tests/test_kernel_edges.py", "tests/test_accepted_space.py")
+              "tests/test_accepted_space.py")
 #: What a mutant's run needs besides the package (tests read configs and docs).
 COPIED = ("sweep", "tests", "configs", "docs", "pyproject.toml")
 TIMEOUT_SECONDS = 1800
