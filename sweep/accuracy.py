@@ -7,8 +7,9 @@ The study, in order:
    to find each part's best design (largest caging area, ties to the first design in config
    order).
 2. *Sample* (deterministic): the cells (l1, l2, r1, r2) of a Halton sequence over the four
-   axes' value indices (bases 2, 3, 5, 7; points 1..N), plus the cell of every part's best
-   design; each sampled cell with every palm width and every part.
+   axes' value indices (bases 2, 3, 5, 7; points 1..N; every cell when N is at least the number
+   of cells), plus the cell of every part's best design; each sampled cell with every palm width
+   and every part.
 3. *Ladder*: one axis varied at a time from the config's setting: h in {2h, h, h/2, h/4};
    reconfig_step from 0.2 to 0.002 rad; root_tol from 1e-3 to 1e-12; every trajectory method.
    *Reference*: one halving finer than the finest rung, h/8, with reconfig_step 0.002,
@@ -47,7 +48,7 @@ import numpy as np
 
 from .batch import summarize_cells
 from .model import TRAJECTORY_METHODS, Accuracy, ModelInputError
-from .outputs import write_bytes_atomic
+from .outputs import write_bytes_atomic, write_text_atomic
 from .scene import Scene
 from .schema import SUMMARY_FIELDS
 
@@ -193,8 +194,11 @@ def best_designs(areas: np.ndarray) -> np.ndarray:
 
 def sample_cells(scene: Scene, n_sample: int, default_areas: np.ndarray) -> np.ndarray:
     """Indices into design_cells(scene) of the sample: Halton points 1..n_sample over the four
-    axes' value indices, then each part's default best cell; sorted, without repeats."""
+    axes' value indices, then each part's default best cell; sorted, without repeats. A sample
+    at least as large as the config's cells is every cell (without walking n_sample points)."""
     lens = [len(scene.values[a]) for a in CELL_AXES]
+    if n_sample >= int(np.prod(lens)):
+        return np.arange(int(np.prod(lens)), dtype=np.int64)
     chosen = []
     for n in range(1, n_sample + 1):
         idx = [min(int(halton(n, b) * m), m - 1) for b, m in zip(HALTON_BASES, lens)]
@@ -510,10 +514,6 @@ def recommend(rows: list) -> dict:
 COLUMNS = ("axis", "setting", "h", "reconfig_step", "root_tol", "trajectory", "default",
            "seconds_per_map", "projected_seconds", "median_error", "worst_error",
            "top1_agreement", "n_parts_agree", "top5_overlap", "kendall_tau")
-
-
-def write_text_atomic(path: Path, text: str) -> None:
-    write_bytes_atomic(path, text.encode())
 
 
 def csv_text(study: Study) -> str:

@@ -13,6 +13,8 @@ from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_ma
 from .kernels.records import Hand, ManipulationOut
 from .manipulation import REDUCTIONS, ManipulationChunk, PartReduction
 from .maps import (
+    BYTES_PER_POINT,
+    FINGER_BYTES,
     finger_offsets,
     grid_index_bounds,
     kernel_records,
@@ -104,6 +106,33 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
 SCENARIO_A_COMMANDS = tuple(round(0.2 * k, 12) for k in range(1, 10))
 SCENARIO_A_EXTREMES = (SCENARIO_A_COMMANDS[0], SCENARIO_A_COMMANDS[-1])
 ENTRY_CAPACITY = 4096  # counted (pose, width) pairs per cell before the cell is redone bigger
+
+
+def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, int, int]:
+    """(rows, columns of the widest map, offsets of the shared finger field) of a cell's maps
+    on the whole-reach grids (as summarize_cells lays them out)."""
+    bounds = [grid_index_bounds(Design(l1, l2, 1.0, 1.0, float(w)), Part(r, 0.0), Grid(h=h))
+              for w in widths]
+    ncols = [b[1] for b in bounds]
+    steps = [palm_half_width_steps(float(w), h) or 0 for w in widths]
+    m_lo = min(min(-n - s for n, s in zip(ncols, steps)), 0)
+    m_hi = max(max(n - s for n, s in zip(ncols, steps)), 0)
+    return bounds[0][3] + 1, 2 * max(ncols) + 1, m_hi - m_lo + 1
+
+
+def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
+               manipulation: bool = False) -> int:
+    """Bytes one thread holds while it computes one cell (kernels/cells.py summarize_cell): the
+    shared finger field, one width's map at a time (both fingers gathered, the outcomes, the
+    trajectory stack) and, with the manipulation metric, the shared field's link vectors and
+    statics (7 floats a point), Scenario A's per-pose force buffers (a count and two floats per
+    width and command) and the cell's Scenario B entries."""
+    total = n_shared * ny * FINGER_BYTES + ny * nx_max * BYTES_PER_POINT
+    if manipulation:
+        slots = n_widths * len(SCENARIO_A_EXTREMES)
+        total += (n_shared * ny * 7 * 8 + ny * nx_max * (8 + 2 * 8 * slots)
+                  + ENTRY_CAPACITY * (4 * 8 + 1))
+    return total
 
 
 def _splice(whole: np.ndarray, redone: np.ndarray, rows: np.ndarray) -> np.ndarray:

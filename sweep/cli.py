@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from . import __version__
-from .cli_base import SweepGroup, UserError
+from .cli_base import SweepGroup, UserError, real_path
 from .cli_accuracy import accuracy as accuracy_command
 from .cli_sweep import COMMANDS as SWEEP_COMMANDS
 from .model import TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy  # plain Python: cheap
@@ -93,7 +93,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from .maps import compute_map, map_grid
+    from .maps import compute_map, map_bytes_per_point, map_grid
     from .model import (Command, Design, Grid, Limits, ModelInputError, Part,
                         validate_inputs, validate_scene)
     from .outputs import claim_output
@@ -109,15 +109,20 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         outputs = _outputs_from_flags(outputs_spec, forces)
         effects = _effects_from_flags(effects_spec, spring_k1, spring_k2, mu)
         validate_inputs(design, part, command, limits, accuracy, effects)
-        validate_scene(effects, outputs)
-        map_grid(design, part, grid)  # sizes the grid and checks it fits in memory
+        try:
+            validate_scene(effects, outputs)
+        except ModelInputError as err:
+            raise ModelInputError(f"--outputs with --effects: {err}") from None
+        # sizes the grid and checks that its arrays and the file image fit in memory
+        map_grid(design, part, grid, map_bytes_per_point(outputs.forces, written=True))
+        _check_window_meets_reach(design, part, grid)
         threads = resolve_threads(threads)
     except (ModelInputError, RunError) as err:
         raise UserError(str(err)) from None
     if plot_path is not None and not outputs.caging:
         raise UserError("--plot draws trajectories and caging scores: it needs the caging "
                         "output (--outputs energy,equilibrium,caging)")
-    if plot_path is not None and plot_path.resolve() == out.resolve():
+    if plot_path is not None and real_path(plot_path) == real_path(out):
         raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 
     from .mapfile import describe, write_map
@@ -125,7 +130,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     # Both outputs are checked and locked before the map is computed.
     # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
     with contextlib.ExitStack() as claimed:
-        for path in sorted({out, plot_path} - {None}, key=lambda p: str(p.resolve())):
+        for path in sorted({out, plot_path} - {None}, key=lambda p: str(real_path(p))):
             claimed.enter_context(claim_output(path, overwrite=overwrite, wait=wait))
         with numba_threads(threads):
             # Load (or, the first time, compile) the kernels on a tiny map so the timing
@@ -140,12 +145,37 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
                             outputs=outputs)
         write_map(out, m)
         click.echo(describe(m))
+        if m.attrs["n_infeasible"] + m.attrs["n_unreached"] == m.attrs["n_points"]:
+            click.echo(f"warning: no grid point of this map has a finger touching the part "
+                       f"({m.attrs['n_infeasible']} infeasible, {m.attrs['n_unreached']} "
+                       "unreached): widen --xlim/--ylim or check the design", err=True)
         click.echo(f"wrote {out}")
         if plot_path is not None:
             from .plot import plot_map
 
             plot_map(m, plot_path)
             click.echo(f"wrote {plot_path}")
+
+
+def _check_window_meets_reach(design, part, grid):
+    """A window wholly outside the reach would give a map with no point to speak of (every
+    point unreached, or below the palm row and infeasible): refused, ModelInputError."""
+    from .maps import reach
+    from .model import PALM_TOL, ModelInputError
+
+    X, Y = reach(design, part)
+    if grid.xlim is not None and (grid.xlim[1] < -X or grid.xlim[0] > X):
+        raise ModelInputError(f"--xlim {grid.xlim[0]:g} {grid.xlim[1]:g} lies outside the "
+                              f"fingers' reach (|x| <= {X:g}): every point would be unreached; "
+                              "move the window or drop --xlim")
+    if grid.ylim is not None and grid.ylim[1] < part.r - PALM_TOL:
+        raise ModelInputError(f"--ylim {grid.ylim[0]:g} {grid.ylim[1]:g} lies below the palm row "
+                              f"y = r = {part.r:g}: every point would be infeasible; move the "
+                              "window up or drop --ylim")
+    if grid.ylim is not None and grid.ylim[0] > Y:
+        raise ModelInputError(f"--ylim {grid.ylim[0]:g} {grid.ylim[1]:g} lies above the fingers' "
+                              f"reach (y <= {Y:g}): every point would be unreached; move the "
+                              "window or drop --ylim")
 
 
 def _outputs_from_flags(spec, forces):
@@ -158,7 +188,8 @@ def _outputs_from_flags(spec, forces):
     try:
         return Outputs.from_names(names + (["forces"] if forces else []))
     except ModelInputError as err:
-        raise ModelInputError(f"--{err}") from None
+        msg = str(err).removeprefix("outputs: ")
+        raise ModelInputError(f"--outputs: {msg}") from None
 
 
 def _effects_from_flags(spec, k1, k2, mu):

@@ -2,6 +2,7 @@
 (sweep/accuracy.py, docs/accuracy.md)."""
 from __future__ import annotations
 
+import math
 import shlex
 import sys
 import time
@@ -36,17 +37,21 @@ def accuracy(config, n_sample, out, maps, progress):
     from .accuracy import DEFAULT_SAMPLE, check_sample, parse_witness, run_study, \
         work_dir_key, write_outputs
     from .model import ModelInputError
+    from .outputs import make_parent
 
+    given = n_sample is not None
     n_sample = DEFAULT_SAMPLE if n_sample is None else n_sample
     try:
         check_sample(n_sample)
         witnesses = [parse_witness(m) for m in maps]
     except ModelInputError as exc:
         raise UserError(str(exc)) from None
+    n_cells = math.prod(len(config.values[a]) for a in ("l1", "l2", "r1", "r2"))
     out = out or Path("results") / f"accuracy-{config.name}"
     if out.exists() and not out.is_dir():
         raise UserError(f"--out: {out} is not a directory")
     work = out / f"work-{work_dir_key(config, n_sample)}"
+    make_parent(work / "x")     # an unwritable --out fails here, in one line, before any work
     from tqdm import tqdm
 
     bar = tqdm(total=1, desc="accuracy", unit="step", disable=not progress,
@@ -67,6 +72,9 @@ def accuracy(config, n_sample, out, maps, progress):
     for m in maps:
         words += ["--map", m]
     paths = write_outputs(study, out, shlex.join(words), time.perf_counter() - started)
+    if given and n_sample > n_cells:
+        click.echo(f"note: --sample {n_sample} is more than the config's {n_cells} design cells "
+                   "(l1, l2, r1, r2): every cell was sampled")
     rec = study.recommended
     click.echo(f"recommended: {rec['setting']} (h = {rec['h']:g}, reconfig_step = "
                f"{rec['reconfig_step']:g}, root_tol = {rec['root_tol']:g}, "

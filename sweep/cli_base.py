@@ -12,8 +12,11 @@ already handled.
 from __future__ import annotations
 
 import contextlib
+import io
+import os
 import signal
 import sys
+from pathlib import Path
 
 import click
 
@@ -63,12 +66,28 @@ def interrupted_message(exc: KeyboardInterrupt, hint: str = "") -> str:
     return f"sweep: {what}" + (f"; {hint}" if hint else "; nothing was written")
 
 
+def one_line(exc: click.UsageError) -> UserError:
+    """A usage error as one line (click prints usage, a hint and the message on three): the
+    message and where the help is."""
+    ctx = exc.ctx
+    where = f" (see '{ctx.command_path} -h')" if ctx is not None else ""
+    return UserError(exc.format_message() + where)
+
+
+#: `sweep` without a command prints its help (exit 2 since click 8.2): that stays as it is.
+_HELP_ERRORS = tuple(t for t in (getattr(click.exceptions, "NoArgsIsHelpError", None),) if t)
+
+
 @contextlib.contextmanager
 def user_errors():
     """Errors the user can fix -> one line, exit 2; Ctrl-C / SIGTERM -> one line, exit 130."""
     with sigterm_as_interrupt():
         try:
             yield
+        except _HELP_ERRORS:
+            raise
+        except click.UsageError as exc:
+            raise one_line(exc) from None
         except (click.exceptions.Exit, click.ClickException, click.Abort, SystemExit):
             raise
         except KeyboardInterrupt as exc:
@@ -86,8 +105,31 @@ def user_errors():
             raise
 
 
+def real_path(path) -> Path:
+    """The path with every symlink followed; never raises (a symlink loop is left as it is,
+    where Path.resolve raises RuntimeError)."""
+    return Path(os.path.realpath(path))
+
+
+class NonEmptyPath(click.Path):
+    """click.Path that refuses an empty string (Path("") is the current directory, and a
+    message about "." would not name what the user typed)."""
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, str) and not value:
+            self.fail("an empty path; give a file or folder name", param, ctx)
+        return super().convert(value, param, ctx)
+
+
 class SweepCommand(click.Command):
-    """A command whose errors reach the user through `user_errors`."""
+    """A command whose errors reach the user through `user_errors`; its path parameters
+    refuse an empty path (`NonEmptyPath`)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        for p in self.params:
+            if type(p.type) is click.Path:
+                p.type.__class__ = NonEmptyPath   # same settings, one check more
 
     def invoke(self, ctx):
         with user_errors():
@@ -104,6 +146,22 @@ class SweepGroup(click.Group):
         with user_errors():
             return super().invoke(ctx)
 
+    def parse_args(self, ctx, args):
+        with user_errors():
+            return super().parse_args(ctx, args)
+
     def main(self, *args, **kwargs):
+        printable_paths()
         with sigterm_as_interrupt():
             return super().main(*args, **kwargs)
+
+
+def printable_paths() -> None:
+    """A file name with bytes that are not UTF-8 (held as surrogate escapes) is printed as those
+    very bytes (in a UTF-8 locale Python's stdout would raise UnicodeEncodeError on it, after
+    the file was written)."""
+    for stream in (sys.stdout, sys.stderr):
+        encoding = (getattr(stream, "encoding", "") or "").lower().replace("-", "")
+        if encoding == "utf8" and hasattr(stream, "reconfigure"):
+            with contextlib.suppress(ValueError, OSError, io.UnsupportedOperation):
+                stream.reconfigure(errors="surrogateescape")

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import click
 
-from .cli_base import EXIT_INTERRUPTED, SweepCommand, SweepGroup, UserError, interrupted_message
+from .cli_base import (EXIT_INTERRUPTED, SweepCommand, SweepGroup, UserError, interrupted_message,
+                       real_path)
 
 
 class SceneParam(click.ParamType):
@@ -303,16 +304,16 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
         sweep_cmd = str(exe) if exe.exists() else (shutil.which("sweep") or "sweep")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out: {out} is a file; it names the run directory")
-    rundir = RunDir(out.resolve())
+    rundir = RunDir(real_path(out))
     job_name = job_name or f"sweep-{scene.name}"
     text = slurm.sbatch_script(
-        config=str(Path(scene.path).resolve()), out_dir=str(rundir.root), n_chunks=chunks,
+        config=str(real_path(scene.path)), out_dir=str(rundir.root), n_chunks=chunks,
         job_name=job_name, sweep_cmd=sweep_cmd, parallel=parallel,
         cpus_per_task=cpus_per_task, time=time_limit, mem=mem, partition=partition,
         account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
     sbatch = None
     if submit:  # everything checked before anything is written
-        results = (results or rundir.root / "results.h5").resolve()
+        results = real_path(results or rundir.root / "results.h5")
         if results.exists():
             raise UserError(f"--results: {results} exists; the merge job would refuse "
                             "to replace it: move it away or choose another --results")

@@ -119,6 +119,10 @@ def attr_value(value):
         return np.int8(value)
     if value is None:
         return "none"
+    if isinstance(value, str):
+        # HDF5 text is UTF-8: a path with bytes that are not (surrogate escapes) is stored with
+        # them spelled out as \udcXX
+        return value.encode("utf-8", "backslashreplace").decode("utf-8")
     return value
 
 

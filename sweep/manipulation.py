@@ -360,6 +360,30 @@ class ManipulationChunk:
         """Two chunks of adjacent items, in either order."""
         return ManipulationChunk.merge_all([self, other])
 
+    @classmethod
+    def merge_stream(cls, chunks) -> "ManipulationChunk":
+        """Chunks of adjacent items, in item order, folded one at a time: at most the merged
+        data and one chunk are held (merge_all holds every chunk at once, so its memory grew
+        with the sweep). The hulls, values and usage are those of merge_all (the hull of a union
+        is the hull of the parts' hulls); a part in only one chunk is kept as it is."""
+        start = stop = None
+        a_metric, parts = [], {}
+        for ch in chunks:
+            if stop is not None and ch.start != stop:
+                raise ValueError(f"chunk {ch.start}-{ch.stop} does not follow item {stop}")
+            start = ch.start if start is None else start
+            stop = ch.stop
+            a_metric.append(ch.a_metric)
+            for key, reds in ch.parts.items():
+                if key not in parts:
+                    parts[key] = dict(reds)
+                else:
+                    parts[key] = {name: parts[key][name].merge(reds[name])
+                                  for name in REDUCTIONS}
+        if start is None:
+            raise ValueError("no chunks to merge")
+        return cls(start, stop, np.concatenate(a_metric), dict(sorted(parts.items())))
+
     def write(self, group) -> None:
         """Into an h5py group (a block file's `manipulation` group)."""
         group.attrs["item_start"] = self.start

@@ -48,10 +48,24 @@ from .model import (
 )
 from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
-# Bytes held per grid point while a map is computed: two fingers x (mode, 4 floats, flag),
-# outcomes (3 floats, 5 flags/codes), trajectories (code, 2 int64).
-BYTES_PER_POINT = 2 * (1 + 4 * 8 + 1) + (3 * 8 + 5) + (1 + 2 * 8)
+# Bytes held per grid point while a map is computed, every array of kernels/records.py:
+#: one finger's field (mode, t1, t2, k1, k2, tip_overlap)
+FINGER_BYTES = 1 + 4 * 8 + 1
+#: the outcomes (energy, l_open, caging_score; class and four flags; end state, end index)
+OUTCOME_BYTES = 3 * 8 + 5 + 1 + 8
+#: both fingers, the outcomes and the trajectory stack (one int64 per point)
+BYTES_PER_POINT = 2 * FINGER_BYTES + OUTCOME_BYTES + 8
+#: the contact forces (outputs.forces): five floats and a flag per finger, and S_geo
+FORCE_BYTES_PER_POINT = 2 * (5 * 8 + 1) + 8
 MAX_POINTS_DEFAULT = 200_000_000
+
+
+def map_bytes_per_point(forces: bool = False, written: bool = False) -> int:
+    """Bytes per grid point of one map: its arrays (with the forces when asked for) and, when
+    the map is `written`, its file too, which is rendered in memory before it is written
+    (sweep.outputs: about the arrays once more)."""
+    arrays = BYTES_PER_POINT + (FORCE_BYTES_PER_POINT if forces else 0)
+    return 2 * arrays if written else arrays
 
 
 @dataclass
@@ -89,8 +103,9 @@ def grid_index_bounds(design: Design, part: Part, grid: Grid) -> tuple[int, int,
     X, Y = reach(design, part)
     extent = max(abs(v) for v in (X, Y, *(grid.xlim or ()), *(grid.ylim or ())))
     if not math.isfinite(extent / h) or extent / h > 1e9:
-        raise ModelInputError(f"h = {h!r} is too fine for a window of extent {extent:g}: "
-                              "that grid does not fit in memory")
+        raise ModelInputError(f"h = {h!r} is too fine for a window of extent {extent:g} (the "
+                              "reach l1 + l2 + w/2 + r, or the window of --xlim/--ylim): that "
+                              "grid does not fit in memory")
     if grid.xlim is None:
         n = math.floor(X / h + GRID_TOL)
         i0, i1 = -n, n
@@ -112,10 +127,12 @@ def grid_index_bounds(design: Design, part: Part, grid: Grid) -> tuple[int, int,
     return i0, i1, j0, j1
 
 
-def map_grid(design: Design, part: Part, grid: Grid) -> MapGrid:
-    """The grid of one map, checked to fit in memory before anything is allocated."""
+def map_grid(design: Design, part: Part, grid: Grid,
+             bytes_per_point: int = BYTES_PER_POINT) -> MapGrid:
+    """The grid of one map, checked to fit in memory (`bytes_per_point`: what the caller will
+    hold per point, `map_bytes_per_point`) before anything is allocated."""
     i0, i1, j0, j1 = grid_index_bounds(design, part, grid)
-    check_memory((i1 - i0 + 1) * (j1 - j0 + 1))
+    check_memory((i1 - i0 + 1) * (j1 - j0 + 1), bytes_per_point=bytes_per_point)
     h = grid.h
     i = np.arange(i0, i1 + 1, dtype=np.int64)
     j = np.arange(j0, j1 + 1, dtype=np.int64)
@@ -152,9 +169,10 @@ def available_memory() -> int:
         return 8 << 30
 
 
-def check_memory(n_points: int, what: str = "the grid") -> None:
+def check_memory(n_points: int, what: str = "the grid",
+                 bytes_per_point: int = BYTES_PER_POINT) -> None:
     """Refuse a grid whose working arrays would not fit in memory."""
-    need = n_points * BYTES_PER_POINT
+    need = n_points * bytes_per_point
     available = available_memory()
     if n_points > MAX_POINTS_DEFAULT or need > 0.5 * available:
         raise ModelInputError(
@@ -271,7 +289,7 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     forces = outputs.forces
     validate_scene(effects, outputs)
     validate_inputs(design, part, command, limits, accuracy, effects)
-    g = map_grid(design, part, grid)
+    g = map_grid(design, part, grid, map_bytes_per_point(forces))
     ny, nx = g.shape
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     started = time.perf_counter()

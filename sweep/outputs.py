@@ -146,6 +146,16 @@ def write_json_atomic(path: str | os.PathLike, obj) -> Path:
     return write_bytes_atomic(path, text.encode())
 
 
+def text_bytes(text: str) -> bytes:
+    """UTF-8 bytes of text for a file; a path with bytes that are not UTF-8 (held as surrogate
+    escapes) is written back as those very bytes instead of failing."""
+    return text.encode("utf-8", "surrogateescape")
+
+
+def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+    return write_bytes_atomic(path, text_bytes(text))
+
+
 def _parse_temp(name: str) -> tuple[str, str, int | None] | None:
     """'.NAME.tmp.HOST.PID' -> (NAME, HOST, PID); the older '.NAME.tmpPID' -> (NAME, '', PID)."""
     if not name.startswith("."):

@@ -34,10 +34,23 @@ def main(argv=None) -> None:
         cli(args=argv, prog_name="sweep")
     finally:
         # The command has finished (its result written or its error reported): a late signal
-        # must not turn it into a death by signal while the interpreter shuts down.
-        with contextlib.suppress(ValueError):
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            signal.signal(signal.SIGTERM, signal.SIG_IGN)
+        # must not turn it into a traceback or a death by signal while the interpreter shuts
+        # down. The handlers become a Python no-op (with SIG_IGN a signal already pending would
+        # print "Signal 2 ignored due to race condition"); the switch itself is inside the try,
+        # so a signal that arrives just before it is dropped and the command's status stands.
+        while True:
+            try:
+                signal.signal(signal.SIGINT, _dropped)
+                signal.signal(signal.SIGTERM, _dropped)
+                break
+            except KeyboardInterrupt:
+                continue
+            except ValueError:              # not the main thread
+                break
+
+
+def _dropped(signum, frame):
+    """A signal after the command has finished: nothing left to interrupt."""
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -34,7 +34,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from . import __version__
-from .outputs import write_bytes_atomic
+from .outputs import text_bytes, write_bytes_atomic
 from .store import StoreError, read_store, scene_from_frozen
 
 DESIGN_DIMS = ("l1", "l2", "r1", "r2", "w")
@@ -675,7 +675,7 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
             st, rep.manipulation, best, rep.manipulation.index(rep.pose_part), log)))
     write("best_caging.png", _png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", _png(caging_tip_figure(st, rep.representatives, log)))
-    write("report.md", markdown(st, rep).encode())
+    write("report.md", text_bytes(markdown(st, rep)))
     finish()
     return rep
 

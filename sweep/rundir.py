@@ -26,6 +26,7 @@ from pathlib import Path
 
 from . import __version__
 from .chunks import Range, chunk_ranges
+from .maps import available_memory
 from .outputs import (OutputLock, claim_output, os_errors_named, remove_stale_temporaries,
                       write_json_atomic)
 from .scene import Scene
@@ -280,6 +281,11 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
                             f" ({s.path.name})" if s.path else "") for s in bad)
         raise StoreError(f"cannot merge {root}: {len(bad)} of {status.n_chunks} shards not usable: "
                          f"{desc}")
+    need = scene_from_frozen(read_block(status.shards[0].path, with_data=False).frozen).held_bytes()
+    available = available_memory()
+    if need > 0.8 * available:   # the results and merged reductions (Scene.held_bytes)
+        raise StoreError(f"cannot merge {root}: the store needs about {need / 1024**3:.1f} GiB in "
+                         f"memory, about {available / 1024**3:.1f} GiB free")
     with claim_output(out, overwrite=overwrite, wait=wait):
         blocks = [read_block(s.path) for s in status.shards]
         scene = scene_from_frozen(blocks[0].frozen)

@@ -109,6 +109,24 @@ def numba_threads(n: int | None):
         numba.set_num_threads(old)
 
 
+def check_run_memory(scene: Scene, threads: int | None) -> None:
+    """Refuse a run whose arrays (Scene.memory_bytes: every thread's largest cell, the results
+    and the manipulation reductions) would not fit in this machine's free memory; `threads`
+    None means Numba's default (every core)."""
+    if threads is None:
+        import numba
+
+        threads = numba.get_num_threads()
+    need = scene.memory_bytes(threads)
+    available = maps.available_memory()
+    if need > 0.8 * available:
+        gib = 1024**3
+        raise RunError(f"the run needs about {need / gib:.1f} GiB ({threads} threads x "
+                       f"{scene.cell_bytes() / gib:.2f} GiB for the largest cell, "
+                       f"{scene.held_bytes() / gib:.2f} GiB of results), about "
+                       f"{available / gib:.1f} GiB free: use fewer --threads or a larger grid.h")
+
+
 # ---------------------------------------------------------------------------------------------
 # Compute
 # ---------------------------------------------------------------------------------------------
@@ -200,6 +218,7 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
     out = Path(out)
     t_wall = time.perf_counter()
     paths = SingleRun(out)
+    check_run_memory(scene, threads)
     with claim_output(out, overwrite=True, wait=wait):
         if out.exists() and not overwrite:
             try:
@@ -251,6 +270,7 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
         ranges = chunk_ranges(scene.n_items, n_chunks, scene.group_size, scene.group_costs())
     except ValueError as exc:
         raise RunError(f"--chunks {n_chunks}: {exc}") from None
+    check_run_memory(scene, threads)
     rundir = RunDir(Path(out_dir))
     ensure_manifest(rundir, scene, n_chunks)
     start, stop = ranges[chunk]

@@ -34,11 +34,14 @@ import numpy as np
 import yaml
 
 from . import __version__
-from .batch import CELL_COLUMNS, part_lattice_columns
-from .maps import BYTES_PER_POINT, grid_index_bounds
+from .batch import (CELL_COLUMNS, ENTRY_CAPACITY, cell_bytes, cell_extent,
+                    part_lattice_columns)
+from .manipulation import REDUCTIONS
+from .maps import grid_index_bounds
 from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS,
                     Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Outputs,
                     Part, validate_inputs)
+from .schema import SUMMARY_FIELDS
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -71,10 +74,16 @@ MAX_REFINE_LEVELS = 6
 
 #: Most values one parameter may expand to (a typo such as step 1e-9 fails here, not in memory).
 MAX_VALUES_PER_PARAMETER = 100_000
-#: Largest estimated working set of one map (`sweep.maps.BYTES_PER_POINT` per grid point) that a
-#: config may ask for. A fixed cap, not the free memory of the machine that validates: a config
-#: checked on a login node must mean the same on a compute node.
+#: Largest estimated working set of one thread (`Scene.cell_bytes`: its largest cell's maps,
+#: shared field and manipulation buffers) that a config may ask for. A fixed cap, not the free
+#: memory of the machine that validates: a config checked on a login node must mean the same on
+#: a compute node (where `sweep.runner` checks the whole run against the free memory).
 MAX_MAP_BYTES = 4 * 1024**3
+#: The merged manipulation reductions (sweep.manipulation.PartReduction): a kept point is 12
+#: floats and a geometry index; a pose keeps its hull's vertices and near points, a handful
+#: (measured: docs/performance.md, "Memory").
+REDUCTION_ROW_BYTES = 12 * 8 + 8
+KEPT_PER_POSE = 4
 
 #: `grid_points` of a grid too fine to count (any number above the memory limit would do).
 TOO_MANY_POINTS = sys.maxsize
@@ -262,6 +271,34 @@ class Scene:
                                               max(self.values["l2"]), r, self.h)
                          for r in self.values["r"]], dtype=np.int64)
 
+    # --- memory (every array a run holds; docs/performance.md, "Memory") ---------------------
+    def cell_bytes(self) -> int:
+        """What one thread holds for the scene's largest cell (batch.cell_bytes): the largest
+        l1, l2 and r, every width."""
+        l1, l2, r = (max(self.values[k]) for k in ("l1", "l2", "r"))
+        ny, nx_max, n_shared = cell_extent(l1, l2, r, self.values["w"], self.h)
+        return cell_bytes(ny, nx_max, n_shared, len(self.values["w"]), self.manipulation)
+
+    def held_bytes(self) -> int:
+        """What a run holds besides its threads' cells: the summaries of every item, twice (the
+        assembled array and the store's image, rendered in memory before it is written), and
+        with the manipulation metric a sub-chunk's Scenario B entries and the merged per-part
+        reductions (KEPT_PER_POSE points of REDUCTION_ROW_BYTES per pose of every part's
+        lattice, both reductions)."""
+        total = 2 * self.n_maps * len(SUMMARY_FIELDS) * 8
+        if self.manipulation:
+            # the Scenario B entries of a sub-chunk's cells (batch.manipulation_cells)
+            cells = self.sub_chunk_cells or self.group_size
+            total += cells * ENTRY_CAPACITY * (4 * 8 + 1)
+            poses = sum((2 * int(n) + 1) * (self.lattice_rows() + 1)
+                        for n in self.lattice_columns()) * len(self.values["mu"])
+            total += poses * len(REDUCTIONS) * KEPT_PER_POSE * REDUCTION_ROW_BYTES
+        return total
+
+    def memory_bytes(self, threads: int = 1) -> int:
+        """Estimated peak memory of a run of the whole scene on `threads` threads."""
+        return threads * self.cell_bytes() + self.held_bytes()
+
     def lattice_rows(self) -> int:
         """M of every part's lattice y = r + j h, 0 <= j <= M (the largest reach, MODEL 8)."""
         return int(math.floor((max(self.values["l1"]) + max(self.values["l2"])) / self.h
@@ -322,16 +359,23 @@ def load_scene(path: str | Path) -> Scene:
     """Read, validate and expand a YAML config. Raises SceneError naming the bad key."""
     path = Path(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         raise SceneError(f"{path}: cannot read config ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:   # e.g. an HDF5 store given where the config goes
+        raise SceneError(f"{path}: not a YAML config (byte {exc.start} is not UTF-8 text); "
+                         "give the sweep's .yaml file") from None
     try:
         raw = yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:
         where = getattr(exc, "problem_mark", None)
         line = f" (line {where.line + 1})" if where is not None else ""
-        raise SceneError(f"{path.name}: not valid YAML{line}: "
-                         f"{getattr(exc, 'problem', None) or exc}") from None
+        problem = str(getattr(exc, "problem", None) or exc).splitlines()[0]
+        raise SceneError(f"{path.name}: not valid YAML{line}: {problem}") from None
+    except RecursionError:
+        raise SceneError(f"{path.name}: not a config: nested too deeply") from None
     return dataclasses.replace(scene_from_dict(raw, default_name=path.stem), path=str(path))
 
 
@@ -430,7 +474,7 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
             except ModelInputError as exc:
                 raise SceneError(f"config: {exc}") from None
 
-    _check_memory(values, h)
+    _check_countable(values, h)
     _check_coarse(values, h)
 
     outputs = _mapping(raw.get("outputs", {}) or {}, "outputs", OUTPUT_KEYS)
@@ -466,6 +510,8 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
             if abs(s - round(s)) > 1e-9:
                 raise SceneError(f"outputs.manipulation: every palm width must be a multiple of "
                                  f"2h = {2 * h:g} (poses are shared lattice points); w = {w:g}")
+
+    _check_memory(values, h, manipulation)
 
     if effects.joint_springs:
         if any((c.f_left, c.f_right) != (1.0, 1.0) for c in commands):
@@ -599,20 +645,28 @@ def _commands(spec) -> tuple[Command, ...]:
     return tuple(out)
 
 
-def _check_memory(values: dict, h: float) -> None:
+def _check_countable(values: dict, h: float) -> None:
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
-    points = grid_points(l1, l2, w, r, h)
-    if points == TOO_MANY_POINTS:
+    if grid_points(l1, l2, w, r, h) == TOO_MANY_POINTS:
         raise SceneError(f"grid.h: {h!r} gives the largest design (l1={l1}, l2={l2}, w={w}, "
                          f"r={r}) too many grid points to count (over 1e9 per axis), far above "
                          f"the {MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h or "
                          f"smaller designs")
-    need = points * BYTES_PER_POINT
+
+
+def _check_memory(values: dict, h: float, manipulation: bool) -> None:
+    """One thread's largest cell (its maps, its shared finger field and, with the manipulation
+    metric, its force buffers: batch.cell_bytes) within MAX_MAP_BYTES."""
+    l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
+    ny, nx_max, n_shared = cell_extent(l1, l2, r, values["w"], h)
+    need = cell_bytes(ny, nx_max, n_shared, len(values["w"]), manipulation)
     if need > MAX_MAP_BYTES:
+        points = grid_points(l1, l2, w, r, h)
         raise SceneError(
             f"grid.h: {h!r} gives {points:,} grid points for the largest design (l1={l1}, "
-            f"l2={l2}, w={w}, r={r}), about {need / 1024**3:.1f} GiB per map, above the "
-            f"{MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h")
+            f"l2={l2}, w={w}, r={r}), about {need / 1024**3:.1f} GiB per thread (its maps, "
+            f"shared finger field{' and manipulation buffers' if manipulation else ''}), above "
+            f"the {MAX_MAP_BYTES / 1024**3:.0f} GiB limit; use a larger grid.h")
 
 
 def _check_coarse(values: dict, h: float) -> None:

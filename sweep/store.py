@@ -345,7 +345,8 @@ def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
     if pick is None:
         raise StoreError(f"blocks {sorted(b.range for b in blocks)} do not cover items "
                          f"{start}-{stop}")
-    return ManipulationChunk.merge_all(read_manipulation(blocks[i].path) for i in pick)
+    # one block at a time (pick is in item order): memory stays flat as the sweep grows
+    return ManipulationChunk.merge_stream(read_manipulation(blocks[i].path) for i in pick)
 
 
 MANIPULATION_ATTRS = {

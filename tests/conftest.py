@@ -9,3 +9,9 @@ settings.register_profile(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much],
 )
 settings.load_profile("sweep")
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    """Lines tests leave for the summary (the fuzz campaign's count of cases)."""
+    for line in getattr(config, "sweep_summary_lines", []):
+        terminalreporter.write_line(line)

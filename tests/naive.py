@@ -251,16 +251,20 @@ def reconfigure(dx, dy, t1_0, l1, l2, r1, r2, r, mu, th2_max, step, root_tol):
         prev = node
         n += 1
 
-    # Bisect each event that holds at the node: lo holds, hi does not; return lo.
+    # Bisect each event that holds at the node: lo holds, hi does not; return lo. A joint stop,
+    # and events that start in the same step, are bisected to 1e-12 whatever root_tol (D19).
     crossings = []
     for priority, ev in enumerate(events):
         if ev not in holding:
             continue
+        tol = root_tol
+        if len(holding) > 1 or ev in ("distal_stop", "proximal_stop"):
+            tol = min(root_tol, 1e-12)
         if ev == "proximal_stop":
             crossing = 0.0
         else:
             lo, hi = node, prev
-            while hi - lo > root_tol:
+            while hi - lo > tol:
                 mid = 0.5 * (lo + hi)
                 if mid <= lo or mid >= hi:
                     break

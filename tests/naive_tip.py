@@ -207,13 +207,30 @@ def normal_force(tau, c_n, c_t):
     return float(np.linalg.solve(a, np.asarray(tau, dtype=float))[0])
 
 
+def proximal_gap(dx, dy, t1, l1, r) -> float:
+    """D21: the proximal link's distance from the centre over r, less 1 (< 0: inside)."""
+    B = (l1 * math.cos(t1), l1 * math.sin(t1))
+    s = min(max((dx * B[0] + dy * B[1]) / (l1 * l1), 0.0), 1.0)
+    return math.hypot(dx - s * B[0], dy - s * B[1]) / r - 1.0
+
+
+def link_enters_before_tip(dx, dy, t1, t2, l1, l2, r) -> bool:
+    """D20: the distal link's points just before the tip lie inside the disc (the link would cut
+    through the part): the tip's distance to the centre grows along the link towards the tip,
+    d/de |T - e u - d|^2 at e = 0 is -2 u . (T - d) < 0, beyond the model's slack."""
+    B, T, _, _ = finger_geometry(t1, t2, l1, l2)
+    u = unit(sub(T, B))
+    return (u[0] * (T[0] - dx) + u[1] * (T[1] - dy)) / r > RANGE_TOL
+
+
 def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, root_tol):
     """D15's tip path: t2 increasing from t2_0, t1 = tip_strike_t1(t2); the first event met
     (smallest t2) wins, ties in TIP_EVENTS order. Nodes t2_0 + n step, the last clamped to
     theta2_max; each event holding at a node is bisected in its bracket down to root_tol.
 
     Returns (mode, t1, t2, why): TIP_ONLY (why: stick, distal_stop, proximal_stop; at the
-    bracket end where the event holds, t1 clamped into [0, pi]) or SLIPPED (why: miss,
+    bracket end where the event holds, t1 clamped into [0, pi]), PROXIMAL_TIP (why:
+    proximal_contact, the proximal link resting on the part, D21) or SLIPPED (why: miss,
     pull_off; at the bracket end where the tip still touches and presses)."""
     tau = (r1, r2)
 
@@ -223,15 +240,17 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         t1 = tip_strike_t1(dx, dy, t2, l1, l2, r)
         if t1 is None:
             return event == "lost"
-        if event == "proximal_stop":     # leaves [0, pi], inclusive by the model's slack (D2)
-            return t1 < -RANGE_TOL or t1 > PI + RANGE_TOL
+        if event == "proximal_stop":     # leaves [0, pi], inclusive by the model's slack (D2),
+            return (t1 < -RANGE_TOL or t1 > PI + RANGE_TOL     # or the proximal link reaches
+                    or proximal_gap(dx, dy, t1, l1, r) < -RANGE_TOL)  # the part (D21)
         c_n, c_t = tip_columns(dx, dy, t1, t2, l1, l2)
         balanced = cross(tau, c_n) + mu * abs(cross(tau, c_t)) >= 0.0
         if event == "stick":             # a multiplier balances the tendon with a pushing tip
             return balanced and normal_force(tau, c_n, c_t) >= 0.0
-        if event == "lost":              # pulled off, or only a pulling tip would balance
-            return (tau[0] * c_n[0] + tau[1] * c_n[1] < 0.0
-                    or (balanced and normal_force(tau, c_n, c_t) < 0.0))
+        if event == "lost":              # pulled off, only a pulling tip would balance, or
+            return (tau[0] * c_n[0] + tau[1] * c_n[1] < 0.0        # the distal link reaches
+                    or (balanced and normal_force(tau, c_n, c_t) < 0.0)  # the tip from inside
+                    or link_enters_before_tip(dx, dy, t1, t2, l1, l2, r))  # the disc (D20)
         raise ValueError(event)
 
     n = 1
@@ -248,8 +267,11 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
     for priority, ev in enumerate(TIP_EVENTS):
         if ev not in holding:
             continue
+        tol = root_tol                   # a joint stop, and events of one step: 1e-12 (D19)
+        if len(holding) > 1 or ev in ("distal_stop", "proximal_stop"):
+            tol = min(root_tol, 1e-12)
         lo, hi = prev, node              # the event holds at hi, not at lo
-        while hi - lo > root_tol:
+        while hi - lo > tol:
             mid = 0.5 * (lo + hi)
             if mid <= lo or mid >= hi:
                 break
@@ -260,12 +282,28 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         crossings.append((hi, priority, ev, lo))
     crossings.sort()
     hi, _, winner, lo = crossings[0]
+    reported = lo if winner == "lost" else hi
+    if winner != "proximal_stop" and holds("proximal_stop", reported):
+        # the proximal stop (or the part, D21) was passed within the step, unseen at the nodes:
+        # the path ends where it is first met (D19)
+        free, stop = prev, reported      # it does not hold at the free node, holds here
+        while stop - free > min(root_tol, 1e-12):
+            mid = 0.5 * (free + stop)
+            if mid <= free or mid >= stop:
+                break
+            if holds("proximal_stop", mid):
+                stop = mid
+            else:
+                free = mid
+        hi, winner = stop, "proximal_stop"
     if winner == "lost":
         t1 = tip_strike_t1(dx, dy, lo, l1, l2, r)
         cause = "miss" if tip_strike_t1(dx, dy, hi, l1, l2, r) is None else "pull_off"
         return SLIPPED, t1, lo, cause
-    t1 = tip_strike_t1(dx, dy, hi, l1, l2, r)
-    return TIP_ONLY, min(max(t1, 0.0), PI), hi, winner
+    t1 = min(max(tip_strike_t1(dx, dy, hi, l1, l2, r), 0.0), PI)
+    if winner == "proximal_stop" and proximal_gap(dx, dy, t1, l1, r) <= RANGE_TOL:
+        return PROXIMAL_TIP, t1, hi, "proximal_contact"          # D21: resting on the part
+    return TIP_ONLY, t1, hi, winner
 
 
 # ---------------------------------------------------------------------------------------------
@@ -302,7 +340,10 @@ def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
         mode, t1, t2, why = tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min,
                                      theta2_max, reconfig_step, root_tol)
         note(why)
-        return tip_result(mode, t1, t2)
+        k1 = 0.0
+        if mode == PROXIMAL_TIP:            # D21: the proximal contact where the link touches
+            k1 = min(max(dx * math.cos(t1) + dy * math.sin(t1), 0.0), l1)
+        return tip_result(mode, t1, t2, k1)
 
     def reconfigured(t1_0):
         note("reconfigure")

@@ -34,7 +34,8 @@ from .geometry import (
     vertex_entry,
     wrap_angle,
 )
-from .path import DISTAL_STOP, SLIP, follow_path, tip_columns, tip_on_disc, tip_polar
+from .path import (DISTAL_STOP, EXACT_TOL, PROXIMAL_STOP, SLIP, event_crossing, follow_path,
+                   proximal_link_gap, tip_columns, tip_event_margin, tip_on_disc, tip_polar)
 from .records import FingerState, FingerStatics
 from .statics import (
     BALANCE_NEGATIVE,
@@ -175,7 +176,7 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     Returns a FingerState with mode DISTAL_ONLY (stuck, or on a joint stop) or SLIPPED; with
     tip_contact, a contact that passes the tip is taken over by the tip (D15).
     """
-    event, t1, _ = follow_path(dx, dy, t1_start, 0.0, finger, solver, effects.joint_springs,
+    event, t1, _, _ = follow_path(dx, dy, t1_start, 0.0, finger, solver, effects.joint_springs,
                                None)
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
     if event == SLIP:
@@ -197,12 +198,19 @@ def past_the_tip(tip, dx, dy, t1, t2, k2, finger, solver, springs):
 @njit(cache=True)
 def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     """D15: the tip stays on the disc while the distal closes (t2 increases from t2_start, t1
-    follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop) or the part is
-    lost (SLIPPED, where the tip last touched)."""
-    event, s, s_touching = follow_path(dx, dy, -t2_start, -finger.theta2_max, finger, solver,
-                                       springs, tip)
+    follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop), the proximal
+    link reaches the part (PROXIMAL_TIP, resting on it as on a stop, D21) or the part is lost
+    (SLIPPED, where the tip last touched)."""
+    event, s, s_touching, s_free = follow_path(dx, dy, -t2_start, -finger.theta2_max, finger,
+                                               solver, springs, tip)
     if event == SLIP:
         s = s_touching
+    if event != PROXIMAL_STOP and tip_event_margin(PROXIMAL_STOP, s, dx, dy, finger, springs)[0]:
+        # the proximal stop (or the part, D21) was passed within the last step, unseen at its
+        # nodes (a coarse reconfig_step): the path ends where it is first met (D19)
+        s, _ = event_crossing(PROXIMAL_STOP, s, s_free, dx, dy, finger, springs,
+                              min(solver.root_tol, EXACT_TOL), tip)
+        event = PROXIMAL_STOP
     t2 = min(-s, finger.theta2_max)
     if event == DISTAL_STOP:  # on the stop itself (as the edge path ends on t1 = 0 exactly)
         t2 = finger.theta2_max
@@ -210,6 +218,10 @@ def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     t1 = clamp(t1, 0.0, math.pi)
     if event == SLIP:
         return FingerState(SLIPPED, t1, t2, 0.0, finger.l2, False)
+    if event == PROXIMAL_STOP and proximal_link_gap(t1, dx, dy, finger) <= RANGE_TOL:
+        # the proximal link reached the part (D21): it rests on it, with the tip
+        k1 = clamp(dx * math.cos(t1) + dy * math.sin(t1), 0.0, finger.l1)
+        return FingerState(PROXIMAL_TIP, t1, t2, k1, finger.l2, False)
     return FingerState(TIP_ONLY, t1, t2, 0.0, finger.l2, False)
 
 

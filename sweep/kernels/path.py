@@ -22,7 +22,14 @@ from .statics import joint_torques, max_torque_balance, unit_normal_to, vertex_c
 # Events along a path (bit mask), in tie-break priority order (model-notes D4). On the tip path
 # SLIP is "lost": the tip no longer holds the part.
 STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
+JOINT_STOPS = DISTAL_STOP | PROXIMAL_STOP
 MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e-6 rad
+# Bracket width of a path that ends on a joint stop, and of events that start within the same
+# step, whatever root_tol (model-notes D4, D19): the state on a stop must satisfy the stop (a
+# coarse bracket clamped onto it left a contact off the disc or a tip inside the part), and
+# the order of two events is decided by where they start, not by the bracket's resolution (a
+# stick and a slip tied at a coarse node reported a stuck contact past the tip).
+EXACT_TOL = 1e-12
 
 
 # ---------------------------------------------------------------------------------------------
@@ -103,37 +110,67 @@ def tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, mu_s):
 
 @njit(cache=True)
 def tip_node(s, dx, dy, finger, springs):
-    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes). pull = -tau . c_n
-    > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier balances the
-    tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is >= 0, from
-    tau x c_t = F (c_n x c_t) (its sign, without dividing). 0 / True where it does not meet."""
+    """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes, cut). pull =
+    -tau . c_n > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier
+    balances the tendon (gtip >= 0), whether the normal force F of tau = F (c_n + mu c_t) is
+    >= 0, from tau x c_t = F (c_n x c_t) (its sign, without dividing); cut = u . (T - d) / r,
+    u the distal link's direction: > 0 where the link reaches the tip from inside the disc (it
+    cuts through the part), 0 where it is tangent there (D20); gap: the proximal link's
+    clearance from the part (proximal_link_gap, D21). 0 / True where it does not meet."""
     t2 = -s
     meets, c, t1 = tip_on_disc(t2, dx, dy, finger)
     gtip = 0.0
     pull = 0.0
     pushes = True
+    cut = -1.0
+    gap = proximal_link_gap(t1, dx, dy, finger)
     if meets:
         cn1, cn2, ct1, ct2 = tip_columns(t1, t2, dx, dy, finger)
         tau1, tau2 = joint_torques(t1, t2, finger, springs)
         gtip = tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, finger.mu_s)
         pull = -(tau1 * cn1 + tau2 * cn2)
         pushes = (tau1 * ct2 - tau2 * ct1) * (cn1 * ct2 - cn2 * ct1) >= 0.0
-    return meets, c, t1, t2, gtip, pull, pushes
+        cut = link_cut_at_tip(t1, t2, dx, dy, finger)
+    return meets, c, t1, t2, gtip, pull, pushes, cut, gap
+
+
+@njit(cache=True)
+def proximal_link_gap(t1, dx, dy, finger):
+    """|d - J B| / r - 1 for the proximal link at t1 (D21): < 0 where the link is inside the
+    part, 0 where it touches it."""
+    bx = finger.l1 * math.cos(t1)
+    by = finger.l1 * math.sin(t1)
+    s = min(max((dx * bx + dy * by) / (finger.l1 * finger.l1), 0.0), 1.0)
+    return math.hypot(dx - s * bx, dy - s * by) / finger.r - 1.0
+
+
+@njit(cache=True)
+def link_cut_at_tip(t1, t2, dx, dy, finger):
+    """u . (T - d) / r for the distal link's direction u (D20): the link near its tip T lies
+    inside the disc iff this is > 0 (|T - e u - d|^2 = r^2 - 2 e u . (T - d) + e^2)."""
+    phi = t1 + t2
+    ux = math.cos(phi)
+    uy = math.sin(phi)
+    tx = finger.l1 * math.cos(t1) + finger.l2 * ux
+    ty = finger.l1 * math.sin(t1) + finger.l2 * uy
+    return (ux * (tx - dx) + uy * (ty - dy)) / finger.r
 
 
 @njit(cache=True)
 def tip_event_margin(event, s, dx, dy, finger, springs):
     """(holds, margin) of one tip-path event at s = -t2 (D15), as edge_event_margin."""
-    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
-    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
+    meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
+    return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger)
 
 
 @njit(cache=True)
-def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger):
+def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger):
     """(holds, margin) of a tip-path event at a node: stick (gtip >= 0 with a pushing tip: the
     finger is in equilibrium, MODEL 5.1), distal stop (t2 >= theta2_max), proximal stop (t1 out
-    of [0, pi] by more than the range slack), lost (SLIP: the tip's circle about J misses the
-    disc, the tendon pulls the tip off, or only a pulling tip would balance the tendon)."""
+    of [0, pi] by more than the range slack, or the proximal link reaching the part, which stops
+    it as its joint stop would, D21), lost (SLIP: the tip's circle about J misses the disc, the
+    tendon pulls the tip off, only a pulling tip would balance the tendon, or the distal link
+    reaches the tip from inside the disc, D20)."""
     if event == DISTAL_STOP:  # with or without contact: the path ends at theta2_max
         margin = t2 - (finger.theta2_max - RANGE_TOL)
         return margin >= 0.0, margin
@@ -142,22 +179,24 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger):
             return True, max(c - (1.0 - RANGE_TOL), -1.0 - c)
         return False, -1.0
     if event == PROXIMAL_STOP:
-        margin = max(-RANGE_TOL - t1, t1 - (math.pi + RANGE_TOL))
+        margin = max(-RANGE_TOL - t1, t1 - (math.pi + RANGE_TOL), -gap - RANGE_TOL)
         return margin > 0.0, margin
     if event == STICK:
         return gtip >= 0.0 and pushes, gtip
     if gtip >= 0.0 and not pushes:
-        return True, max(pull, gtip)
-    return pull > 0.0, pull
+        return True, max(pull, gtip, cut - RANGE_TOL)
+    margin = max(pull, cut - RANGE_TOL)
+    return margin > 0.0, margin
 
 
 @njit(cache=True)
 def tip_path_events(s, dx, dy, finger, springs):
     """Bit mask of the tip-path events that hold at s = -t2 (D15)."""
-    meets, c, t1, t2, gtip, pull, pushes = tip_node(s, dx, dy, finger, springs)
+    meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
     events = 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):
-        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, finger)
+        holds, _ = tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap,
+                                   finger)
         if holds:
             events |= event
     return events
@@ -222,11 +261,12 @@ def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
 @njit(cache=True)
 def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
     """Step the path's parameter s down from s_start to the first event, bracket each event that
-    holds there, and return (event, s, s_after): the first event met (largest s; exact ties in
-    the order stick, distal stop, proximal stop, slip), where it starts, and the bracket's other
-    end (where it did not hold yet). The edge path's s is t1 (down to s_end = 0, where the
-    proximal stop holds), the tip path's -t2 (down to -theta2_max, where the distal stop
-    holds): the last node always ends the path on an event."""
+    holds there, and return (event, s, s_after, s_free): the first event met (largest s; exact
+    ties in the order stick, distal stop, proximal stop, slip), where it starts, the bracket's
+    other end (where it did not hold yet) and the last node where no event held. The edge
+    path's s is t1 (down to s_end = 0, where the proximal stop holds), the tip path's -t2 (down
+    to -theta2_max, where the distal stop holds): the last node always ends the path on an
+    event."""
     step = solver.reconfig_step
     hi = s_start
     lo = s_start
@@ -246,14 +286,17 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
     best_t1 = -math.inf
     best_after = hi
     best_event = PROXIMAL_STOP
+    several = (events & (events - 1)) != 0
     for event in (STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP):  # priority order for exact ties
         if events & event:
-            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs,
-                                              solver.root_tol, tip)
+            tol = solver.root_tol
+            if several or (event & JOINT_STOPS) != 0:
+                tol = min(tol, EXACT_TOL)
+            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol, tip)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_after = t_after
                 best_event = event
     if best_t1 < s_end:  # unreachable (the last node is always an event); keep a defined answer
         best_t1 = s_end
-    return best_event, best_t1, best_after
+    return best_event, best_t1, best_after, hi

@@ -1,0 +1,117 @@
+"""Ties and tolerance edges of the kernels that only mutation testing showed untested (issue P13,
+scripts/mutants.py): each test pins one rule at the exact edge where a small change of the code
+would otherwise go unnoticed."""
+import math
+
+import numpy as np
+import pytest
+
+from kernel_calls import closing, solve
+from naive import naive_finger
+from sweep.kernels.cells import pose_radius_sum
+from sweep.manipulation import HullReduction
+from sweep.model import DISTAL_ONLY, SLIPPED, VERTEX
+
+TH2MIN = math.radians(-5.0)
+TH2MAX = math.radians(90.0)
+DISTAL_ON_LOWER_STOP = 16  # kernels.finger's internal mode of a rigid-sweep distal tangency
+
+
+# ---------------------------------------------------------------------------------------------
+# hull.py: COINCIDE_REL = 1e-12 exactly (MODEL 10: forces coincide "to 1e-12 relative")
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("inside, coincides", [(5e-13, True), (5e-12, False)])
+def test_coincidence_with_a_vertex_is_one_part_in_1e12(inside, coincides):
+    """A force `inside` (relative) short of the vertex (1, 1) of a square coincides with it
+    below 1e-12 and not above: its geometry's parameters enter the usage or not."""
+    params = np.array([[0.0, 0.4, 0.4, 0.04, 0.02], [2.0, 2.0, 1.6, 0.2, 0.18]])
+    red = HullReduction.empty(1)
+    red.add([1.0], [1.0], [True], 0, params[0])
+    red.add([1.0 - inside], [1.0 - inside], [True], 1, params[1])
+    for g, (x, y) in enumerate([(-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]):
+        red.add([x], [y], [True], 2 + g, params[0])
+    expected = np.ones(5) if coincides else np.zeros(5)    # (upper - lower) / range, or none
+    np.testing.assert_allclose(red.parameter_usage(), expected, rtol=1e-12, atol=0)
+
+
+# ---------------------------------------------------------------------------------------------
+# finger.py: a strike of B tied with the distal tangency at B (MODEL 4: the tangency covers
+# the link's end, a vertex wins only if strictly earlier)
+# ---------------------------------------------------------------------------------------------
+TIE = dict(dx=1.0136533953236306, dy=0.44970144356784336, l1=1.0, l2=0.4, r=0.4)
+
+
+def test_distal_tangent_at_b_is_not_a_vertex_strike():
+    """The distal link on its stop, tangent to the disc exactly at B at t1 = 0.05 (the strike
+    of B comes 2.6e-16 rad earlier by round-off): the first contact is the distal tangency."""
+    t = TIE
+    # the point is built so: B at t1 = 0.05, the disc tangent to the distal line there
+    bx, by = t["l1"] * math.cos(0.05), t["l1"] * math.sin(0.05)
+    phi = 0.05 + TH2MIN
+    nx, ny = -math.sin(phi), math.cos(phi)                 # the distal link's inner normal
+    assert math.hypot(t["dx"] - (bx + t["r"] * nx), t["dy"] - (by + t["r"] * ny)) < 1e-14
+    mode, t1, t2, k1, k2, _ = closing(t["dx"], t["dy"], t["l1"], t["l2"], t["r"], TH2MIN,
+                                      TH2MAX)
+    assert mode == DISTAL_ON_LOWER_STOP and mode != VERTEX
+    assert t1 == pytest.approx(0.05, abs=1e-12) and t2 == TH2MIN and k2 == pytest.approx(0.0,
+                                                                                         abs=1e-7)
+    # settled: a contact at the distal joint cannot stand (MODEL 5.3): it slides, never VERTEX
+    final = solve(t["dx"], t["dy"], t["l1"], t["l2"], 0.2, 0.1, t["r"], 0.4, TH2MIN, TH2MAX,
+                  0.01, 1e-12)
+    assert final[0] != VERTEX
+
+
+# ---------------------------------------------------------------------------------------------
+# path.py: events tied exactly go to the first in D4's order (stick, distal stop, proximal stop,
+# slip); events that start within one step are bracketed to 1e-12 whatever root_tol (D19)
+# ---------------------------------------------------------------------------------------------
+def test_contact_reaching_the_tip_exactly_at_the_proximal_stop_rests_on_the_stop():
+    """R = 1, no friction: the distal contact slides to the tip and reaches it (k2 = l2 +
+    1.25e-12, within one bracket of 1e-12 of t1 = 0) exactly as the proximal link reaches its
+    stop. Both events start at t1 = 0 exactly: the tie goes to the proximal stop (D4), the
+    finger rests on it with the contact at the tip (not SLIPPED)."""
+    l1, l2, r, phi = 1.0, 0.6, 0.3, math.radians(30.0)
+    k2 = l2 + 1.25e-12
+    dx = l1 + k2 * math.cos(phi) - r * math.sin(phi)   # distal tangent at k2 with t1 = 0
+    dy = k2 * math.sin(phi) + r * math.cos(phi)
+    got = solve(dx, dy, l1, l2, 0.1, 0.1, r, 0.0, TH2MIN, TH2MAX, 0.01, 1e-12)
+    ref = naive_finger(dx, dy, l1, l2, 0.1, 0.1, r, 0.0, TH2MIN, TH2MAX, 0.01, 1e-12)
+    assert got[0] == ref["mode"] == DISTAL_ONLY
+    assert got[1] == ref["t1"] == 0.0 and got[2] == pytest.approx(phi, abs=1e-9)
+    assert got[4] == pytest.approx(l2, abs=2e-12)
+
+
+def test_coarse_root_tolerance_keeps_contacts_on_the_link_and_agrees_with_the_reference():
+    """root_tol = 0.1 > reconfig_step: no event is bracketed below its step, except joint stops
+    and events that start in the same step (D19). Kernel and reference agree point by point;
+    every stuck distal contact lies on the link and on its joint range."""
+    l1, l2, r1, r2, r, mu = 2.0, 1.0, 0.2, 0.18, 0.4, 0.1
+    step, root_tol = 0.05, 0.1
+    reconfigured = 0
+    for dx in np.linspace(-2.0, 3.0, 26):
+        for dy in np.linspace(0.45, 3.0, 18):
+            ref = naive_finger(dx, dy, l1, l2, r1, r2, r, mu, TH2MIN, TH2MAX, step, root_tol)
+            got = solve(dx, dy, l1, l2, r1, r2, r, mu, TH2MIN, TH2MAX, step, root_tol)
+            assert got[0] == ref["mode"], (dx, dy, got, ref)
+            if ref["mode"] in (DISTAL_ONLY, SLIPPED):
+                # both bracket to the same width by different methods (D4): within it
+                assert got[1] == pytest.approx(ref["t1"], abs=2e-12)
+                assert got[2] == pytest.approx(ref["t2"], abs=1e-9)
+            if got[0] == DISTAL_ONLY:
+                reconfigured += got[1] < math.pi
+                assert got[4] <= l2 + 1e-9 and got[2] <= TH2MAX
+    assert reconfigured > 20
+
+
+# ---------------------------------------------------------------------------------------------
+# cells.py: a pose's value needs three forces, not four (MODEL 10: "0 if fewer than 3 forces")
+# ---------------------------------------------------------------------------------------------
+def test_three_forces_around_the_origin_give_a_positive_value():
+    count = np.array([[3]], dtype=np.int64)
+    fx = np.array([[[-1.0, 3.0, -1.0]]])
+    fy = np.array([[[-1.0, -1.0, 3.0]]])
+    values = np.zeros((1, 1, 1))
+    total = pose_radius_sum(count, fx, fy, values, 0)
+    assert total == pytest.approx(1.0, rel=1e-14) and values[0, 0, 0] == total  # inradius 1
+    count[0, 0] = 2
+    assert pose_radius_sum(count, fx, fy, values, 0) == 0.0
