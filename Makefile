@@ -31,9 +31,11 @@ map: $(STAMP)
 test: $(STAMP)
 	$(PY) -m pytest -q
 
-# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml); CI runs it.
+# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), and the layers
+# that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(PY) -m pytest -q -p no:cacheprovider tests/test_layers.py
 
 # The sweep as a SLURM array job on a real single-node cluster (as root; installs slurm-wlm and
 # munge if missing; stops its daemons and removes its files whatever happens). Under 2 minutes.

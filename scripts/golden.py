@@ -13,8 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
-from sweep.mapfile import write_map
-from sweep.maps import compute_map
+from sweep.storage.mapfile import write_map
+from sweep.compute.maps import compute_map
 from sweep.model import Accuracy, Command, Design, Grid, Part
 
 # (file name, design, part, command, grid, accuracy): reference design, R > 1, a large part, a

@@ -93,11 +93,12 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from .maps import compute_map, map_bytes_per_point, map_grid
+    from .compute.maps import compute_map, map_grid
+    from .grid import map_bytes_per_point
     from .model import (Command, Design, Grid, Limits, ModelInputError, Part,
                         validate_inputs, validate_scene)
     from .outputs import claim_output
-    from .runner import RunError, numba_threads, resolve_threads
+    from .runs.runner import RunError, numba_threads, resolve_threads
 
     design = Design(l1, l2, r1, r2, w)
     part = Part(r, mu)
@@ -125,7 +126,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     if plot_path is not None and real_path(plot_path) == real_path(out):
         raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 
-    from .mapfile import describe, write_map
+    from .storage.mapfile import describe, write_map
 
     # Both outputs are checked and locked before the map is computed.
     # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
@@ -160,7 +161,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 def _check_window_meets_reach(design, part, grid):
     """A window wholly outside the reach would give a map with no point to speak of (every
     point unreached, or below the palm row and infeasible): refused, ModelInputError."""
-    from .maps import reach
+    from .grid import reach
     from .model import PALM_TOL, ModelInputError
 
     X, Y = reach(design, part)

@@ -53,7 +53,7 @@ def sigterm_as_interrupt():
 def _user_error_types() -> tuple[type, ...]:
     # Imported here, not at the top: only modules already loaded can have raised these.
     types: list[type] = []
-    for module, name in (("sweep.model", "ModelInputError"), ("sweep.store", "StoreError"),
+    for module, name in (("sweep.model", "ModelInputError"), ("sweep.storage.store", "StoreError"),
                          ("sweep.outputs", "OutputError")):
         mod = sys.modules.get(module)
         if mod is not None:

@@ -1,10 +1,10 @@
 """Sweep commands of the CLI: run, slurm, status, merge, top, show, report.
 
-Each command is declared once, here, as a click command (`COMMANDS`); `register(group)` adds them
-to a group (`sweep.cli.main` does so). Each is a thin layer over `sweep.scene`, `sweep.runner`,
-`sweep.rundir`, `sweep.store` and `sweep.slurm`. A config is loaded and validated by the CONFIG
-argument's type, before anything is written; errors reach the user through
-`sweep.cli_base.user_errors` (one line, exit code 2; Ctrl-C and SIGTERM exit 130).
+Each command is declared once, here, as a click command (`COMMANDS`); `register(group)` adds them to
+a group (`sweep.cli.main` does so). Each is a thin layer over `sweep.config.scene`,
+`sweep.runs.runner`, `sweep.runs.rundir`, `sweep.storage.store` and `sweep.runs.slurm`. A config is
+loaded and validated by the CONFIG argument's type, before anything is written; errors reach the
+user through `sweep.cli_base.user_errors` (one line, exit code 2; Ctrl-C and SIGTERM exit 130).
 """
 from __future__ import annotations
 
@@ -20,13 +20,13 @@ from .cli_base import (EXIT_INTERRUPTED, SweepCommand, SweepGroup, UserError, in
 
 
 class SceneParam(click.ParamType):
-    """A YAML sweep config, loaded, validated and expanded into a `sweep.scene.Scene`."""
+    """A YAML sweep config, loaded, validated and expanded into a `sweep.config.scene.Scene`."""
 
     name = "config"
 
     def convert(self, value, param, ctx):
         from .model import ModelInputError
-        from .scene import Scene, load_scene
+        from .config.scene import Scene, load_scene
 
         if isinstance(value, Scene):
             return value
@@ -86,9 +86,9 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
     With --chunks N and no --chunk, the chunk index comes from the array job:
     SLURM_ARRAY_TASK_ID or PBS_ARRAY_INDEX (0..N-1), SGE_TASK_ID or LSB_JOBINDEX (1..N).
     """
-    from . import runner
+    from .runs import runner
     from .outputs import OutputError
-    from .rundir import RunDir, SingleRun
+    from .runs.rundir import RunDir, SingleRun
 
     scene = config
     if chunk is not None and chunks is None:
@@ -146,8 +146,8 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
 def _run_refinement(store, settings, threads, progress, restart, wait, force=False):
     """The refinement stage of a store (`sweep run`, `sweep merge`, `sweep refine`), with the
     CLI's messages."""
-    from .refine import refine_store
-    from .rundir import refine_dir
+    from .runs.refine import refine_store
+    from .runs.rundir import refine_dir
 
     try:
         res = refine_store(store, settings, threads=threads, progress=progress,
@@ -215,9 +215,9 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
     """
     import dataclasses
 
-    from . import runner
-    from .scene import RefineSettings
-    from .store import read_store, scene_from_frozen
+    from .runs import runner
+    from .config.scene import RefineSettings
+    from .storage.store import read_store, scene_from_frozen
 
     threads = runner.resolve_threads(threads)
     scene = scene_from_frozen(read_store(store).frozen)
@@ -226,7 +226,7 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
                                  ("min_contenders", min_contenders)) if v is not None}
     settings = dataclasses.replace(settings, **changes)
     if changes:
-        from .scene import SceneError, refine_settings
+        from .config.scene import SceneError, refine_settings
 
         try:
             refine_settings(settings.as_dict(), scene.values, scene.h)
@@ -281,10 +281,10 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     Creates DIR and DIR/logs (Slurm does not create log directories) and writes the frozen config
     and chunk plan to DIR/sweep-manifest.json, so every task checks it runs the same sweep.
     """
-    from . import slurm
-    from .chunks import chunk_ranges
+    from .runs import slurm
+    from .config.chunks import chunk_ranges
     from .outputs import os_errors_named
-    from .rundir import RunDir, ensure_manifest
+    from .runs.rundir import RunDir, ensure_manifest
 
     scene = config
     if results is not None and not submit:
@@ -348,7 +348,7 @@ def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sba
     """Write the scripts into the run directory (kept for resubmitting a task), submit the
     array, then the merge job depending on it, then (with `refine_text`, a config with
     `refine:`) the refine job depending on the merge; print the job ids."""
-    from . import slurm
+    from .runs import slurm
 
     array_path = rundir.root / "sweep-array.sbatch"
     merge_path = rundir.root / "sweep-merge.sbatch"
@@ -390,7 +390,7 @@ def status(directory):
     Exit code 0 when every shard is done (ready for `sweep merge`), 1 otherwise, 2 if DIR is not
     a chunked run directory.
     """
-    from .rundir import scan_shards
+    from .runs.rundir import scan_shards
 
     st = scan_shards(directory)
     counts = st.counts()
@@ -426,8 +426,8 @@ def merge(directory, out, overwrite, do_refine, threads, wait):
     Refuses (exit code 2, nothing written) when a shard is missing, corrupt, duplicated, or from
     a different config, chunking or sweep version.
     """
-    from . import runner
-    from .rundir import merge_shards
+    from .runs import runner
+    from .runs.rundir import merge_shards
 
     threads = runner.resolve_threads(threads)
     scene, st = merge_shards(directory, out, overwrite=overwrite, wait=wait)
@@ -470,8 +470,8 @@ def top(results, r, mu, n, by, ascending, command):
     """
     import numpy as np
 
-    from .batch import SUMMARY_FIELDS
-    from .store import read_store
+    from .compute.batch import SUMMARY_FIELDS
+    from .storage.store import read_store
 
     if by is not None and by not in SUMMARY_FIELDS:
         raise UserError(f"--by: unknown field {by!r} (valid: {', '.join(SUMMARY_FIELDS)})")
@@ -511,7 +511,7 @@ def _refined_header(view, designs, pick, pick_part):
     """Lines describing one part's refinement, the refined ranking and the outcome."""
     import numpy as np
 
-    from .refine import equal_r_classes, part_outcome, ranking
+    from .runs.refine import equal_r_classes, part_outcome, ranking
 
     ref = view.refine
     role, value, error = (pick(ref[k]) for k in ("refine_role", "refined_caging_area",
@@ -541,7 +541,7 @@ def _refined_header(view, designs, pick, pick_part):
 def _print_top(view, ri, mui, n, by, ascending, command):
     import numpy as np
 
-    from .refine import designs_of_coords
+    from .runs.refine import designs_of_coords
 
     sel = {"r": ri, "mu": mui}
     if "command" in view.dims:
@@ -608,7 +608,7 @@ def show(results):
     outputs.save_maps), get a short description."""
     import numpy as np
 
-    from .store import CorruptFile, StoreError, read_block, read_store
+    from .storage.store import CorruptFile, StoreError, read_block, read_store
 
     try:
         view = read_store(results)
@@ -701,7 +701,7 @@ def _describe_map_file(path: Path) -> list[str] | None:
 
 def _n_items(b) -> str:
     try:
-        from .store import scene_from_frozen
+        from .storage.store import scene_from_frozen
 
         return f"{scene_from_frozen(b.frozen).n_items:,}"
     except Exception:  # noqa: BLE001 - display only

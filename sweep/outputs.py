@@ -7,9 +7,9 @@ clean-up of temporaries left by killed writers, and one-line errors for file-sys
   removes the temporaries of earlier, killed writers of that output.
 - `write_bytes_atomic(path, data)` writes under a temporary name in the same directory
   (`.NAME.tmp.HOST.PID`), fsyncs, then renames: a file under its final name is always complete.
-  HDF5 (`sweep.h5.atomic_file`), JSON and PNG files are all rendered to bytes in memory first, so
-  a full disk is a plain `OSError` here and never an error inside the HDF5 library (which crashed
-  the process on ENOSPC).
+  HDF5 (`sweep.storage.h5.atomic_file`), JSON and PNG files are all rendered to bytes in memory
+  first, so a full disk is a plain `OSError` here and never an error inside the HDF5 library (which
+  crashed the process on ENOSPC).
 - Every `OSError` of a write becomes an `OutputError` whose one-line message names the path and
   says what happened ("no space left on device", "read-only file system", ...).
 

@@ -82,7 +82,7 @@ def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
     """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectory.py, the
     default rule): grid steps, and where every neighbour is uphill the slide on the true
     energy; and the flat index of the point where it ends (the map's `end_index`)."""
-    from .maps import kernel_records
+    from .compute.maps import kernel_records
 
     energy = np.asarray(m.fields["energy"], dtype=np.float64)
     point_class = np.asarray(m.fields["point_class"])

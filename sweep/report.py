@@ -35,7 +35,7 @@ from matplotlib.figure import Figure
 
 from . import __version__
 from .outputs import text_bytes, write_bytes_atomic
-from .store import StoreError, read_store, scene_from_frozen
+from .storage.store import StoreError, read_store, scene_from_frozen
 
 DESIGN_DIMS = ("l1", "l2", "r1", "r2", "w")
 CANDIDATE_DIMS = ("l1", "l2", "r1", "r2")
@@ -89,7 +89,7 @@ def fmt(v) -> str:
 class StoreData:
     path: Path
     ds: object                  # xarray.Dataset, loaded into memory
-    scene: object               # sweep.scene.Scene rebuilt from the frozen config
+    scene: object               # sweep.config.scene.Scene rebuilt from the frozen config
     attrs: dict
     manipulation: bool
     _reps: np.ndarray | None = None     # equal-R class of every design (refined stores)
@@ -116,12 +116,12 @@ class StoreData:
 
     @property
     def refined(self) -> bool:
-        """The store holds the refinement stage's variables (`sweep.refine`)."""
+        """The store holds the refinement stage's variables (`sweep.runs.refine`)."""
         return "refine_status" in self.ds
 
     def refinement(self, ri: int, mi: int):
-        """The part's refined answer (`sweep.refine.PartOutcome`), None if not refined."""
-        from .refine import designs_of_coords, equal_r_classes, part_outcome
+        """The part's refined answer (`sweep.runs.refine.PartOutcome`), None if not refined."""
+        from .runs.refine import designs_of_coords, equal_r_classes, part_outcome
 
         if not self.refined:
             return None
@@ -163,9 +163,9 @@ def open_store(path: Path) -> StoreData:
 # ---------------------------------------------------------------------------------------------
 def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
     """Flat design indices of one part, best first: the refined ranking in a refined store
-    (`sweep.refine.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
+    (`sweep.runs.refine.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
     if st.refinement(ri, mi) is not None:
-        from .refine import ranking
+        from .runs.refine import ranking
 
         return ranking(st.per_design("refine_role", ri, mi),
                        st.per_design("refined_caging_area", ri, mi),
@@ -388,7 +388,7 @@ def _png(fig: Figure) -> bytes:
 
 
 def _compute_best_map(st: StoreData, design: dict, ri: int, mi: int):
-    from .maps import compute_map
+    from .compute.maps import compute_map
     from .model import Design, Grid, Part
 
     sc = st.scene
@@ -490,7 +490,7 @@ def _lattice_edges(v: np.ndarray, h: float) -> np.ndarray:
 
 def manipulation_figure(st: StoreData, rows: list[dict], best: dict, part_row: int,
                         log) -> Figure:
-    from .batch import scenario_a_pose_values
+    from .compute.batch import scenario_a_pose_values
 
     fig = Figure(figsize=(16, 13), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)

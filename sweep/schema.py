@@ -2,9 +2,9 @@
 
 A `Field` names a quantity, its dtype, its dimensions, its units and CF attributes, and the
 output it belongs to. The kernels index the summary row by the positions derived here
-(`SUMMARY_INDEX`, frozen into them as constants), `sweep.maps` builds a map's fields from the
-point fields, `sweep.mapfile` and `sweep.store` write them with these attributes, and
-docs/outputs.md is generated from this table (`python -m sweep.schema`).
+(`SUMMARY_INDEX`, frozen into them as constants), `sweep.compute.maps` builds a map's fields from
+the point fields, `sweep.storage.mapfile` and `sweep.storage.store` write them with these
+attributes, and docs/outputs.md is generated from this table (`python -m sweep.schema`).
 
 Outputs (MODEL 9: work only for what is asked): `energy` (configurations, modes, energy, class),
 `equilibrium` (part equilibrium), `caging` (containment, L_open, trajectories, scores) and
@@ -187,7 +187,7 @@ COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
 
 
 # ---------------------------------------------------------------------------------------------
-# The refinement stage (sweep.refine): per design and part (store dims, like the summaries) and
+# The refinement stage (sweep.runs.refine): per design and part (store dims, like the summaries) and
 # per part (r, mu and command when the store has that dimension)
 # ---------------------------------------------------------------------------------------------
 #: Role of a design in its part's refinement (`refine_role`).

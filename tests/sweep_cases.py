@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from sweep.batch import SUMMARY_FIELDS
+from sweep.compute.batch import SUMMARY_FIELDS
 
 # 2 x 2 x 1 x 2 x 2 = 16 designs x 2 parts = 32 maps = 16 work items (cells x all widths) in
 # 4 geometry groups (l1, l2, r) of 4 items; sub-chunks of 3 items leave an uneven last one.

@@ -30,7 +30,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
-from sweep.maps import compute_map
+from sweep.compute.maps import compute_map
 from sweep.model import (
     INFEASIBLE,
     PROXIMAL_ONLY,

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sweep import accuracy as acc
+from sweep.runs import accuracy as acc
 from sweep.cli import main
-from sweep.scene import load_scene
+from sweep.config.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "configs" / "small.yaml"

@@ -3,8 +3,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sweep.chunks import (balanced_boundaries, chunk_ranges, even_ranges, exact_cover,
-                          missing_ranges, sub_ranges)
+from sweep.config.chunks import (
+    balanced_boundaries, chunk_ranges, even_ranges, exact_cover, missing_ranges, sub_ranges,
+)
 
 
 @pytest.mark.parametrize("n_items, n_parts, expected", [

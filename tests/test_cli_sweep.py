@@ -20,13 +20,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from sweep import batch, runner
-from sweep.batch import SUMMARY_FIELDS
+from sweep.compute import batch
+from sweep.runs import runner
+from sweep.compute.batch import SUMMARY_FIELDS
 from sweep.cli_sweep import register
-from sweep.rundir import SingleRun, prepare_parts_dir
-from sweep.scene import scene_from_dict
-from sweep.slurm import sbatch_script
-from sweep.store import read_block, read_store
+from sweep.runs.rundir import SingleRun, prepare_parts_dir
+from sweep.config.scene import scene_from_dict
+from sweep.runs.slurm import sbatch_script
+from sweep.storage.store import read_block, read_store
 from sweep_cases import tiny, write_config
 
 DATA = Path(__file__).resolve().parent / "data"

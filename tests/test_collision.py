@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from sweep.kernels.collision import meeting_progress, resolve_collisions, stopped_finger
 from sweep.kernels.records import FingerCollision, new_finger_arrays
-from sweep.maps import compute_map, kernel_records
+from sweep.compute.maps import compute_map, kernel_records
 from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
                          Limits, Part)
 
@@ -215,7 +215,7 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
 def _settled_fields(design, part, h):
     """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
     from sweep.kernels.cells import cell_map
-    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    from sweep.grid import grid_index_bounds, palm_half_width_steps
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
     _, ys, fingers, _, _, _ = cell_map(finger, solver, blocks, design.w,
@@ -288,12 +288,12 @@ def test_sweep_way_gives_the_reference_search_summaries():
     """The sweep (shared fields, link vectors, the per-thread memo across the cells of one
     geometry group) against maps whose fingers the reference resolves: every summary field,
     bit for bit, n_collision_changed included."""
-    from sweep.batch import summarize_cells
+    from sweep.compute.batch import summarize_cells
     from sweep.kernels import cells as cell_kernels
     from sweep.kernels.collision import resolve_collisions_reference
     from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
     from sweep.kernels.records import NO_EFFECTS, Hand, new_outcome_arrays
-    from sweep.maps import grid_index_bounds, palm_half_width_steps
+    from sweep.grid import grid_index_bounds, palm_half_width_steps
     from sweep.model import Command
 
     h = 0.1
@@ -403,7 +403,8 @@ def test_manipulation_with_collision_is_the_base_scene_without_crossed_fingers()
     (D17); nothing else changes. So per part, Scenario B's reduction (every pose's kept
     forces) under the effect is the base scene's 'uncrossed' one, bit for bit, and nothing
     crossed is left."""
-    from sweep.batch import manipulation_cells, part_lattice_columns
+    from sweep.compute.batch import manipulation_cells
+    from sweep.grid import part_lattice_columns
 
     widths = np.array([0.0, 0.4, 0.8])
     cells = np.array([(2.0, 1.6, r1, r2, 0.4, 0.4) for r1, r2 in

@@ -11,10 +11,10 @@ from click.testing import CliRunner
 
 from sweep.cli import main
 from sweep.cli_sweep import register
-from sweep.maps import compute_map
+from sweep.compute.maps import compute_map
 from sweep.model import (END_NONE, Design, Effects, Grid, ModelInputError, Outputs,
                          Part)
-from sweep.scene import SceneError, scene_from_dict
+from sweep.config.scene import SceneError, scene_from_dict
 from sweep_cases import tiny, write_config
 
 REFERENCE = ["--l1", "2.0", "--l2", "1.6", "--r1", "0.2", "--r2", "0.14", "--w", "0.8",
@@ -158,7 +158,7 @@ def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
     # computed (fields keep their "not computed" values), and Lambda is NaN
     from sweep.kernels.field import finger_field, map_from_fingers
     from sweep.kernels.records import Hand, new_finger_arrays, new_outcome_arrays
-    from sweep.maps import finger_offsets, kernel_records, map_grid
+    from sweep.compute.maps import finger_offsets, kernel_records, map_grid
     from sweep.model import Accuracy, Limits
     from sweep.schema import SUMMARY_INDEX
 
@@ -204,7 +204,7 @@ def test_outputs_from_names_refuses_unknown():
 def test_effect_configs_load(name, on):
     from pathlib import Path
 
-    from sweep.scene import load_scene
+    from sweep.config.scene import load_scene
 
     s = load_scene(Path(__file__).resolve().parent.parent / "configs" / f"{name}.yaml")
     assert s.effects.names_on() == on

@@ -24,7 +24,7 @@ import h5py
 import pytest
 from click.testing import CliRunner
 
-from sweep import runner
+from sweep.runs import runner
 from sweep.cli import main
 from sweep.outputs import OutputLock
 from sweep_cases import tiny, write_config
@@ -131,12 +131,12 @@ def test_read_only_output_folder_is_refused_by_every_command(readonly_dir, done,
 
 
 def test_output_under_a_regular_file_is_refused_before_any_work(tmp_path, monkeypatch):
-    import sweep.maps
+    import sweep.compute.maps
 
     def no_compute(*args, **kwargs):
         raise AssertionError("computed a map for an output that cannot be written")
 
-    monkeypatch.setattr(sweep.maps, "compute_map", no_compute)
+    monkeypatch.setattr(sweep.compute.maps, "compute_map", no_compute)
     blocker = tmp_path / "f"
     blocker.write_text("a file")
     for args in (("run", SMALL, "--out", blocker / "out.h5", "--no-progress"),
@@ -271,12 +271,12 @@ def test_a_live_lock_on_another_host_is_not_taken(tmp_path):
 # Ctrl-C and SIGTERM
 # ---------------------------------------------------------------------------------------------
 def test_ctrl_c_while_the_config_loads_is_one_line(tmp_path, monkeypatch):
-    import sweep.scene
+    import sweep.config.scene
 
     def interrupted(path):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sweep.scene, "load_scene", interrupted)
+    monkeypatch.setattr(sweep.config.scene, "load_scene", interrupted)
     res = invoke("run", SMALL, "--out", tmp_path / "a.h5", "--no-progress")
     assert res.exit_code == 130 and "Traceback" not in res.output
     assert res.output.strip() == "sweep: interrupted; nothing was written"
@@ -284,14 +284,14 @@ def test_ctrl_c_while_the_config_loads_is_one_line(tmp_path, monkeypatch):
 
 
 def test_sigterm_during_a_map_is_one_line(tmp_path, monkeypatch):
-    import sweep.maps
+    import sweep.compute.maps
 
     def killed(*args, **kwargs):
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(5)                       # the handler interrupts this at once
         raise AssertionError("SIGTERM was not handled")
 
-    monkeypatch.setattr(sweep.maps, "compute_map", killed)
+    monkeypatch.setattr(sweep.compute.maps, "compute_map", killed)
     res = invoke(*MAP, "--h", "0.3", "--out", tmp_path / "m.h5")
     assert res.exit_code == 130 and res.output.strip().startswith("sweep: terminated")
     assert list(tmp_path.iterdir()) == []               # no map, no lock
@@ -317,7 +317,7 @@ def test_bad_config_values_are_named(tmp_path, changes, names):
 
 
 def test_unquoted_exponent_is_a_number_and_grid_defaults_to_the_papers(tmp_path):
-    from sweep.scene import load_scene
+    from sweep.config.scene import load_scene
 
     cfg = tiny()
     del cfg["grid"]

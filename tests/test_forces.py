@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from kernel_calls import closing, solve
 
-from sweep.batch import cell_map_fields
-from sweep.maps import compute_map
+from sweep.compute.batch import cell_map_fields
+from sweep.compute.maps import compute_map
 from sweep.model import (
     DISTAL_ONLY,
     FREE,

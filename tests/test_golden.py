@@ -63,8 +63,8 @@ def assert_same_file(new: Path, old: Path) -> None:
 @pytest.mark.parametrize("name,design,part,command,grid,accuracy", GOLDEN_MAPS,
                          ids=[g[0] for g in GOLDEN_MAPS])
 def test_map_files_are_unchanged(tmp_path, name, design, part, command, grid, accuracy):
-    from sweep.mapfile import write_map
-    from sweep.maps import compute_map
+    from sweep.storage.mapfile import write_map
+    from sweep.compute.maps import compute_map
 
     write_map(tmp_path / name, compute_map(design, part, command, grid, accuracy=accuracy))
     assert_same_file(tmp_path / name, GOLDEN / name)

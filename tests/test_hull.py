@@ -10,7 +10,7 @@ from hypothesis import given, strategies as st
 from scipy.spatial import ConvexHull, QhullError
 
 from sweep.kernels.hull import convex_hull, inscribed_radius, orient
-from sweep.manipulation import PAPER_SEARCH_RANGES, HullReduction
+from sweep.compute.manipulation import PAPER_SEARCH_RANGES, HullReduction
 
 REL = 1e-12   # MODEL 10's tolerances, spelled out here from the text
 

@@ -9,7 +9,7 @@ import pytest
 from kernel_calls import closing, solve
 from naive import naive_finger
 from sweep.kernels.cells import pose_radius_sum
-from sweep.manipulation import HullReduction
+from sweep.compute.manipulation import HullReduction
 from sweep.model import DISTAL_ONLY, SLIPPED, VERTEX
 
 TH2MIN = math.radians(-5.0)

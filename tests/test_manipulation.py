@@ -7,7 +7,7 @@ import pytest
 
 from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, naive_metric,
                                 world_lattice)
-from sweep.batch import manipulation_cells, summarize_cells
+from sweep.compute.batch import manipulation_cells, summarize_cells
 from sweep.model import Accuracy, Command, Effects, Limits
 
 H = 0.2

@@ -9,7 +9,7 @@ import xarray as xr
 from click.testing import CliRunner
 
 from sweep.cli import main
-from sweep.maps import compute_map
+from sweep.compute.maps import compute_map
 from sweep.model import (END_STATE_MEANINGS, FINGER_MODE_MEANINGS, INFEASIBLE,
                          POINT_CLASS_MEANINGS, Design, Grid, Part)
 

@@ -3,14 +3,14 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-import sweep.maps
-from sweep.batch import manipulation_cells
+import sweep.grid
+from sweep.compute.batch import manipulation_cells
 from sweep.cli import main
 from sweep.kernels.records import new_finger_arrays, new_force_arrays, new_outcome_arrays
-from sweep.manipulation import ManipulationChunk
-from sweep.maps import (BYTES_PER_POINT, FORCE_BYTES_PER_POINT, map_bytes_per_point)
+from sweep.compute.manipulation import ManipulationChunk
+from sweep.grid import BYTES_PER_POINT, FORCE_BYTES_PER_POINT, map_bytes_per_point
 from sweep.model import Accuracy, Effects, Limits
-from sweep.scene import scene_from_dict
+from sweep.config.scene import scene_from_dict
 from sweep_cases import tiny, write_config
 
 
@@ -38,7 +38,7 @@ def test_a_sweep_counts_its_manipulation_buffers_and_results():
 
 @pytest.fixture
 def little_memory(monkeypatch):
-    monkeypatch.setattr(sweep.maps, "available_memory", lambda: 1 << 10)   # 1 KiB free
+    monkeypatch.setattr(sweep.grid, "available_memory", lambda: 1 << 10)   # 1 KiB free
 
 
 def test_a_run_that_does_not_fit_is_refused_before_anything_is_written(tmp_path,

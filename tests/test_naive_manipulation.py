@@ -9,7 +9,7 @@ from naive import naive_finger
 from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, THETA2_MAX, THETA2_MIN,
                                 finger_forces, naive_metric, on_limit, pose_forces, rot90,
                                 world_lattice)
-from sweep.manipulation import PAPER_SEARCH_RANGES, HullReduction
+from sweep.compute.manipulation import PAPER_SEARCH_RANGES, HullReduction
 from sweep.model import DISTAL_ONLY, PROXIMAL_ONLY, TWO_PHALANX
 
 # Three geometries of the paper's grid, (w, l1, l2, r1, r2), and a part (r, mu_s): chosen because

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sweep.maps import compute_map
+from sweep.compute.maps import compute_map
 from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, REACHED,
                          Accuracy, Command, Design, Grid, Part)
 from sweep.plot import _title, plot_map, sliding_points, trajectory_path

@@ -1,4 +1,4 @@
-"""The fast implementation (sweep.maps / sweep.kernels.finger) against the slow reference
+"""The fast implementation (sweep.compute.maps / sweep.kernels.finger) against the slow reference
 (tests/naive.py), plus a few self-checks of the reference itself.
 
 Categorical fields must be equal on every point; floats agree to 1e-9 with NaN in the same places.
@@ -92,7 +92,7 @@ def test_reference_end_states_and_scores_consistent():
 # ---------------------------------------------------------------------------------------------
 def fast_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.1, xlim=None, ylim=None,
              step=0.01, root_tol=1e-12):
-    from sweep.maps import compute_map
+    from sweep.compute.maps import compute_map
     from sweep.model import Accuracy, Command, Design, Grid, Limits, Part
     return compute_map(Design(l1, l2, r1, r2, w), Part(r, mu), Command(f_left, f_right),
                        Grid(h=h, xlim=xlim, ylim=ylim), Limits(),

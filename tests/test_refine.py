@@ -1,8 +1,8 @@
-"""The refinement stage (sweep.refine, `refine:`, `sweep refine`): checked against brute force.
+"""The refinement stage (sweep.runs.refine, `refine:`, `sweep refine`): checked against brute force.
 
 The brute force is a full sweep of every design at every refinement level, computed here with
 `batch.summarize_cells` over whole cells (all widths at once, the screening's own grouping),
-not through sweep.refine's map lists. The refined best design of every part must equal the
+not through sweep.runs.refine's map lists. The refined best design of every part must equal the
 best design of the full sweep at the finest level, and a part that is not certified must have
 that design in its near-tie set (model-notes D18).
 """
@@ -17,10 +17,10 @@ import xarray as xr
 import yaml
 from click.testing import CliRunner
 
-from sweep import refine as rf
-from sweep.batch import summarize_cells
+from sweep.runs import refine as rf
+from sweep.compute.batch import summarize_cells
 from sweep.cli import main as cli
-from sweep.scene import RefineSettings, load_scene
+from sweep.config.scene import RefineSettings, load_scene
 from sweep.schema import REFINE_FIELDS, REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX
 
 DATA = Path(__file__).parent / "data"

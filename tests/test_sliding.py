@@ -50,7 +50,7 @@ SLIDE_CASES = {
 
 def kernel_map(design, commands=(1.0, 1.0), h=0.1, xlim=None, ylim=None, trajectory="sliding"):
     """compute_map with the default accuracy, except the trajectory method when asked."""
-    from sweep.maps import compute_map
+    from sweep.compute.maps import compute_map
     from sweep.model import Accuracy, Command, Design, Grid, Limits, Part
     l1, l2, r1, r2, w, r, mu = design
     accuracy = Accuracy() if trajectory == "sliding" else Accuracy(trajectory=trajectory)
@@ -412,7 +412,7 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     from sweep.kernels.point import point_outcome
     from sweep.kernels.records import Hand
     from sweep.kernels.trajectory import SLIDE_DIRECTIONS, lowest_on_circle
-    from sweep.maps import kernel_records
+    from sweep.compute.maps import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
 
     design, part, h = Design(2.0, 1.6, 0.16, 0.06, 1.2), Part(0.4, 0.1), 0.05

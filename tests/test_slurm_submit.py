@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from sweep.cli_sweep import register
-from sweep.slurm import merge_script
+from sweep.runs.slurm import merge_script
 from sweep_cases import tiny, write_config
 
 DATA = Path(__file__).resolve().parent / "data"

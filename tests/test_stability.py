@@ -19,9 +19,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from kernel_calls import solve as solve_finger
-from sweep.batch import cell_map_fields, summarize_cells
+from sweep.compute.batch import cell_map_fields, summarize_cells
 from sweep.kernels.finger import finger_energy
-from sweep.maps import compute_map, palm_half_width_steps
+from sweep.compute.maps import compute_map
+from sweep.grid import palm_half_width_steps
 from sweep.model import (
     END_STATE_MEANINGS,
     FINGER_MODE_MEANINGS,

@@ -8,15 +8,16 @@ import pytest
 import xarray as xr
 
 from sweep import __version__
-from sweep.batch import SUMMARY_FIELDS
+from sweep.compute.batch import SUMMARY_FIELDS
 from sweep.schema import EFFECT_SUMMARY
-from sweep.chunks import chunk_ranges
+from sweep.config.chunks import chunk_ranges
 from sweep.model import Command
-from sweep.scene import STORE_DIMS, scene_from_dict
-from sweep.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
-from sweep.store import (KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError,
-                         assemble, read_block, read_store, scene_from_frozen, store_arrays,
-                         write_block, write_store)
+from sweep.config.scene import STORE_DIMS, scene_from_dict
+from sweep.runs.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
+from sweep.storage.store import (
+    KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_block, read_store,
+    scene_from_frozen, store_arrays, write_block, write_store,
+)
 from sweep_cases import fake_summaries, tiny
 
 

@@ -64,7 +64,7 @@ IMPLS = ["reference", pytest.param("kernel", marks=needs_kernel)]
 # ---------------------------------------------------------------------------------------------
 def kernel_finger(dx, dy, l1, l2, r1, r2, r, mu, step=0.01, root_tol=1e-12):
     from sweep.kernels.finger import solve_finger
-    from sweep.maps import kernel_records
+    from sweep.compute.maps import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
     finger, solver, effects = kernel_records(
         Design(l1, l2, r1, r2, 0.0), Part(r, mu), Limits(),
@@ -82,7 +82,7 @@ def solve(impl, dx, dy, l1, l2, r1, r2, r, mu):
 
 def kernel_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.1, xlim=None, ylim=None,
                tip_contact=True):
-    from sweep.maps import compute_map
+    from sweep.compute.maps import compute_map
     from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part
     return compute_map(Design(l1, l2, r1, r2, w), Part(r, mu), Command(f_left, f_right),
                        Grid(h=h, xlim=xlim, ylim=ylim), Limits(), Accuracy(),

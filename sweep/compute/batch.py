@@ -9,25 +9,14 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
-from .kernels.records import Hand, ManipulationOut
-from .manipulation import REDUCTIONS, ManipulationChunk, PartReduction
-from .maps import (
-    BYTES_PER_POINT,
-    FINGER_BYTES,
-    finger_offsets,
-    grid_index_bounds,
-    kernel_records,
-    map_fields,
-    map_grid,
-    palm_half_width_steps,
-    summary_attrs,
-)
-from .model import (GRID_TOL, Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError,
-                    Part)
-from .schema import SUMMARY_FIELDS
-
-CELL_COLUMNS = ("l1", "l2", "r1", "r2", "r", "mu")
+from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
+                   grid_index_bounds, palm_half_width_steps, part_lattice_columns)
+from ..kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
+from ..kernels.records import Hand, ManipulationOut
+from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
+from ..schema import SUMMARY_FIELDS
+from .manipulation import ManipulationChunk, PartReduction
+from .maps import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
 
 
 def _cell_design_part(cell, w: float) -> tuple[Design, Part]:
@@ -100,41 +89,6 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
 # ---------------------------------------------------------------------------------------------
 # The manipulation metric inside the sweep (MODEL 10)
 # ---------------------------------------------------------------------------------------------
-#: Scenario A's commands F_left (F_right = 2 - F_left): MODEL 10 lists 0.2, 0.4, ..., 1.8; one
-#: geometry's forces F_left f_L + (2 - F_left) f_R lie on a segment, so only its ends can be hull
-#: vertices and the metric is that of the two extreme commands, which are the ones computed.
-SCENARIO_A_COMMANDS = tuple(round(0.2 * k, 12) for k in range(1, 10))
-SCENARIO_A_EXTREMES = (SCENARIO_A_COMMANDS[0], SCENARIO_A_COMMANDS[-1])
-ENTRY_CAPACITY = 4096  # counted (pose, width) pairs per cell before the cell is redone bigger
-
-
-def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, int, int]:
-    """(rows, columns of the widest map, offsets of the shared finger field) of a cell's maps
-    on the whole-reach grids (as summarize_cells lays them out)."""
-    bounds = [grid_index_bounds(Design(l1, l2, 1.0, 1.0, float(w)), Part(r, 0.0), Grid(h=h))
-              for w in widths]
-    ncols = [b[1] for b in bounds]
-    steps = [palm_half_width_steps(float(w), h) or 0 for w in widths]
-    m_lo = min(min(-n - s for n, s in zip(ncols, steps)), 0)
-    m_hi = max(max(n - s for n, s in zip(ncols, steps)), 0)
-    return bounds[0][3] + 1, 2 * max(ncols) + 1, m_hi - m_lo + 1
-
-
-def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
-               manipulation: bool = False) -> int:
-    """Bytes one thread holds while it computes one cell (kernels/cells.py summarize_cell): the
-    shared finger field, one width's map at a time (both fingers gathered, the outcomes, the
-    trajectory stack) and, with the manipulation metric, the shared field's link vectors and
-    statics (7 floats a point), Scenario A's per-pose force buffers (a count and two floats per
-    width and command) and the cell's Scenario B entries."""
-    total = n_shared * ny * FINGER_BYTES + ny * nx_max * BYTES_PER_POINT
-    if manipulation:
-        slots = n_widths * len(SCENARIO_A_EXTREMES)
-        total += (n_shared * ny * 7 * 8 + ny * nx_max * (8 + 2 * 8 * slots)
-                  + ENTRY_CAPACITY * (4 * 8 + 1))
-    return total
-
-
 def _splice(whole: np.ndarray, redone: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Rows `rows` of `whole` replaced by `redone` (widened along axis 1 when it is wider)."""
     if whole.ndim == 2 and redone.shape[1] > whole.shape[1]:
@@ -144,12 +98,6 @@ def _splice(whole: np.ndarray, redone: np.ndarray, rows: np.ndarray) -> np.ndarr
     whole = whole.copy()
     whole[rows, ...] = redone if whole.ndim == 1 else redone[:, :whole.shape[1]]
     return whole
-
-
-def part_lattice_columns(max_w: float, max_l1: float, max_l2: float, r: float, h: float) -> int:
-    """N of a part's shared pose lattice x = i h, |i| <= N (MODEL 10: the world grid of the
-    largest reach, MODEL 8), for every design of a sweep."""
-    return int(np.floor((0.5 * max_w + max_l1 + max_l2 + r) / h + GRID_TOL))
 
 
 def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: Limits,

@@ -1,19 +1,20 @@
 """File formats of a sweep: blocks (parts and shards) and the results store, written and read.
 
-Three kinds of HDF5 file, all written through `sweep.h5.atomic_file` (a file with its final name
-is always complete, see `sweep.outputs`):
+Three kinds of HDF5 file, all written through `sweep.storage.h5.atomic_file` (a file with its final
+name is always complete, see `sweep.outputs`):
 
-- *block* files hold the summaries of a contiguous range of work items (`sweep.scene.ITEM_ORDER`)
-  at every width: variable ``summaries(item, w, field)`` (float64, Fletcher-32 checksummed), with
-  the frozen config, its hash and the package version as attributes. A run writes one *part*
-  block per finished sub-chunk into a work directory; a cluster chunk ends as one *shard* block.
+- *block* files hold the summaries of a contiguous range of work items
+  (`sweep.config.scene.ITEM_ORDER`) at every width: variable ``summaries(item, w, field)`` (float64,
+  Fletcher-32 checksummed), with the frozen config, its hash and the package version as attributes.
+  A run writes one *part* block per finished sub-chunk into a work directory; a cluster chunk ends
+  as one *shard* block.
 - the *store* holds every map's summary on the labelled dimensions
   ``l1, l2, r1, r2, w, r, mu`` (plus ``command`` when a sweep has several), one variable per
   summary field, and root attributes with the config, effects, grid, provenance and timings.
   It opens with ``xarray.open_dataset(path, engine="h5netcdf")``.
 
 Which files a run has, where they live and what state they are in (work directories, shards,
-manifest, status, merge) is `sweep.rundir`'s.
+manifest, status, merge) is `sweep.runs.rundir`'s.
 """
 from __future__ import annotations
 
@@ -25,15 +26,16 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__
-from .batch import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
-from .chunks import Range, exact_cover
+from .. import __version__
+from ..grid import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
+from ..config.chunks import Range, exact_cover
 from .h5 import (atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
-from .manipulation import PARAMETER_NAMES, ManipulationChunk
-from .scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
-from .schema import (COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS,
-                     summary_field_on)
+from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
+from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
+from ..schema import (
+    COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on,
+)
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
@@ -280,8 +282,9 @@ def part_dims(scene: Scene) -> tuple[str, ...]:
 
 def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
     """Add the refinement variables (`sweep.schema.REFINE_FIELDS`) of `ref` (a
-    `sweep.refine.Refinement`) and its root attributes to the store `path`, rewritten atomically;
-    an earlier refinement's variables are replaced. The screened variables are not touched."""
+    `sweep.runs.refine.Refinement`) and its root attributes to the store `path`, rewritten
+    atomically; an earlier refinement's variables are replaced. The screened variables are not
+    touched."""
     shape = scene.store_shape
     pshape = tuple(scene.axis_len(d) for d in part_dims(scene))
     arrays = dict(refined_caging_area=ref.value, refined_level=ref.level,

@@ -13,9 +13,10 @@ written and rounded once to the nearest double: ``0.4 + 3*0.2`` is ``1.0``, not
 ``1.0000000000000002``, and nothing is ever accumulated.
 
 Work order (see `ITEM_ORDER`): a *work item* is one cell ``(l1, l2, r1, r2, r, mu)`` under one
-command, evaluated at every palm width ``w`` (the unit of `sweep.batch.summarize_cells`). Items are
-numbered with ``(l1, l2, r)`` outermost, so the items that share finger contact geometry form one
-contiguous *geometry group*; chunks and sub-chunks are cut along those groups (`sweep.chunks`).
+command, evaluated at every palm width ``w`` (the unit of `sweep.compute.batch.summarize_cells`).
+Items are numbered with ``(l1, l2, r)`` outermost, so the items that share finger contact geometry
+form one contiguous *geometry group*; chunks and sub-chunks are cut along those groups
+(`sweep.config.chunks`).
 """
 from __future__ import annotations
 
@@ -33,15 +34,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import __version__
-from .batch import (CELL_COLUMNS, ENTRY_CAPACITY, cell_bytes, cell_extent,
-                    part_lattice_columns)
-from .manipulation import REDUCTIONS
-from .maps import grid_index_bounds
-from .model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS,
-                    Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Outputs,
-                    Part, validate_inputs)
-from .schema import SUMMARY_FIELDS
+from .. import __version__
+from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, cell_bytes, cell_extent,
+                   grid_index_bounds, part_lattice_columns)
+from ..model import (
+    IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS, Accuracy,
+    Command, Design, Effects, Grid, Limits, ModelInputError, Outputs, Part, validate_inputs,
+)
+from ..schema import SUMMARY_FIELDS
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
@@ -77,9 +77,9 @@ MAX_VALUES_PER_PARAMETER = 100_000
 #: Largest estimated working set of one thread (`Scene.cell_bytes`: its largest cell's maps,
 #: shared field and manipulation buffers) that a config may ask for. A fixed cap, not the free
 #: memory of the machine that validates: a config checked on a login node must mean the same on
-#: a compute node (where `sweep.runner` checks the whole run against the free memory).
+#: a compute node (where `sweep.runs.runner` checks the whole run against the free memory).
 MAX_MAP_BYTES = 4 * 1024**3
-#: The merged manipulation reductions (sweep.manipulation.PartReduction): a kept point is 12
+#: The merged manipulation reductions (sweep.compute.manipulation.PartReduction): a kept point is 12
 #: floats and a geometry index; a pose keeps its hull's vertices and near points, a handful
 #: (measured: docs/performance.md, "Memory").
 REDUCTION_ROW_BYTES = 12 * 8 + 8
@@ -101,7 +101,7 @@ class SceneError(ModelInputError):
 @dataclass(frozen=True)
 class RefineSettings:
     """The refinement stage (`refine:` in a config; docs/sweeps.md, "Refinement";
-    `sweep.refine`): after the screening sweep at `h`, per part and command, the contenders
+    `sweep.runs.refine`): after the screening sweep at `h`, per part and command, the contenders
     (the `min_contenders` best designs, and those their own coarse-versus-fine change calls
     for, never below (1 - bound) times the part's best screened caging area; equal-R designs
     counted once) are recomputed at h/2, h/4, ... h/2**levels until the best is certified.
@@ -187,7 +187,7 @@ class Scene:
         return dict(zip(ITEM_ORDER, idx))
 
     def cells(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
-        """Items [start, stop) as `sweep.batch` cells: float64 (n, 6) in CELL_COLUMNS order
+        """Items [start, stop) as `sweep.compute.batch` cells: float64 (n, 6) in CELL_COLUMNS order
         (l1, l2, r1, r2, r, mu), and the command index of each item (int64)."""
         ix = self.item_indices(start, stop)
         cols = [np.asarray(self.values[c], dtype=np.float64)[ix[c]] for c in CELL_COLUMNS]
@@ -248,7 +248,7 @@ class Scene:
     def config_hash(self) -> str:
         """sha256 of the resolved config. Name, outputs, refine and run settings do not enter
         it: they change no summary, so a rerun with another sub-chunk size still resumes (the
-        refinement's own identity is `sweep.refine.refine_identity`)."""
+        refinement's own identity is `sweep.runs.refine.refine_identity`)."""
         text = json.dumps(self.resolved(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -273,7 +273,7 @@ class Scene:
 
     # --- memory (every array a run holds; docs/performance.md, "Memory") ---------------------
     def cell_bytes(self) -> int:
-        """What one thread holds for the scene's largest cell (batch.cell_bytes): the largest
+        """What one thread holds for the scene's largest cell (grid.cell_bytes): the largest
         l1, l2 and r, every width."""
         l1, l2, r = (max(self.values[k]) for k in ("l1", "l2", "r"))
         ny, nx_max, n_shared = cell_extent(l1, l2, r, self.values["w"], self.h)
@@ -306,7 +306,8 @@ class Scene:
 
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
-    """Points of the default whole-reach grid of one map (MODEL 8; as `sweep.maps.map_grid`)."""
+    """Points of the default whole-reach grid of one map (MODEL 8; as
+    `sweep.compute.maps.map_grid`)."""
     try:
         i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
     except ModelInputError:
@@ -656,7 +657,7 @@ def _check_countable(values: dict, h: float) -> None:
 
 def _check_memory(values: dict, h: float, manipulation: bool) -> None:
     """One thread's largest cell (its maps, its shared finger field and, with the manipulation
-    metric, its force buffers: batch.cell_bytes) within MAX_MAP_BYTES."""
+    metric, its force buffers: grid.cell_bytes) within MAX_MAP_BYTES."""
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
     ny, nx_max, n_shared = cell_extent(l1, l2, r, values["w"], h)
     need = cell_bytes(ny, nx_max, n_shared, len(values["w"]), manipulation)
@@ -708,7 +709,7 @@ def refine_settings(spec, values: dict, h: float) -> RefineSettings | None:
     settings = RefineSettings(levels=levels, bound=bound, min_contenders=floor)
     finest = settings.level_h(h, levels)
     try:
-        _check_memory(values, finest)
+        _check_memory(values, finest, manipulation=False)  # refinement recomputes summaries only
     except SceneError as exc:
         raise SceneError(f"refine.levels: the finest level h/2^{levels} = {finest:g}: "
                          f"{str(exc).removeprefix('grid.h: ')}") from None

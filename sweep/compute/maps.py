@@ -5,67 +5,25 @@ every grid point in parallel, then classifies points, follows trajectories and s
 """
 from __future__ import annotations
 
-import math
-import os
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .kernels.field import finger_field, map_from_fingers_parallel
-from .kernels.records import (
-    NO_EFFECTS,
-    EffectBlocks,
-    FingerArrays,
-    FingerCollision,
-    JointSprings,
-    TipContact,
-    FingerModel,
-    ForceArrays,
-    Hand,
-    OutcomeArrays,
-    SolverSettings,
-    finger_blocks,
-    new_finger_arrays,
-    new_force_arrays,
-    new_outcome_arrays,
+from ..kernels.field import finger_field, map_from_fingers_parallel
+from ..kernels.records import (
+    NO_EFFECTS, EffectBlocks, FingerArrays, FingerCollision, JointSprings, TipContact, FingerModel,
+    ForceArrays, Hand, OutcomeArrays, SolverSettings, finger_blocks, new_finger_arrays,
+    new_force_arrays, new_outcome_arrays,
 )
-from .model import (
-    GRID_TOL,
-    STREAMLINE_STEP,
-    TRAJECTORY_METHODS,
-    Accuracy,
-    Command,
-    Design,
-    Effects,
-    Grid,
-    Limits,
-    ModelInputError,
-    Outputs,
-    Part,
-    validate_inputs,
-    validate_scene,
+from ..grid import (
+    BYTES_PER_POINT, check_memory, grid_index_bounds, map_bytes_per_point, palm_half_width_steps,
 )
-from .schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
-
-# Bytes held per grid point while a map is computed, every array of kernels/records.py:
-#: one finger's field (mode, t1, t2, k1, k2, tip_overlap)
-FINGER_BYTES = 1 + 4 * 8 + 1
-#: the outcomes (energy, l_open, caging_score; class and four flags; end state, end index)
-OUTCOME_BYTES = 3 * 8 + 5 + 1 + 8
-#: both fingers, the outcomes and the trajectory stack (one int64 per point)
-BYTES_PER_POINT = 2 * FINGER_BYTES + OUTCOME_BYTES + 8
-#: the contact forces (outputs.forces): five floats and a flag per finger, and S_geo
-FORCE_BYTES_PER_POINT = 2 * (5 * 8 + 1) + 8
-MAX_POINTS_DEFAULT = 200_000_000
-
-
-def map_bytes_per_point(forces: bool = False, written: bool = False) -> int:
-    """Bytes per grid point of one map: its arrays (with the forces when asked for) and, when
-    the map is `written`, its file too, which is rendered in memory before it is written
-    (sweep.outputs: about the arrays once more)."""
-    arrays = BYTES_PER_POINT + (FORCE_BYTES_PER_POINT if forces else 0)
-    return 2 * arrays if written else arrays
+from ..model import (
+    STREAMLINE_STEP, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Grid, Limits, Outputs,
+    Part, validate_inputs, validate_scene,
+)
+from ..schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
 
 @dataclass
@@ -84,49 +42,6 @@ class MapGrid:
         return (self.y.size, self.x.size)
 
 
-def reach(design: Design, part: Part) -> tuple[float, float]:
-    """Default window half-width X and height Y: the whole reach (MODEL 8)."""
-    return (0.5 * design.w + design.l1 + design.l2 + part.r, part.r + design.l1 + design.l2)
-
-
-def grid_index_bounds(design: Design, part: Part, grid: Grid) -> tuple[int, int, int, int]:
-    """Integer bounds (i0, i1, j0, j1) of a map's grid, x = i h, y = r + j h (MODEL 8, D1).
-
-    Allocates nothing, so it can size a grid before deciding whether it fits in memory.
-    """
-    h = grid.h
-    if not (isinstance(h, (int, float)) and math.isfinite(h) and h > 0):
-        raise ModelInputError(f"h must be a positive number, got {h!r}")
-    for name, window in (("xlim", grid.xlim), ("ylim", grid.ylim)):
-        if window is not None and not all(math.isfinite(v) for v in window):
-            raise ModelInputError(f"{name} must be finite, got {window!r}")
-    X, Y = reach(design, part)
-    extent = max(abs(v) for v in (X, Y, *(grid.xlim or ()), *(grid.ylim or ())))
-    if not math.isfinite(extent / h) or extent / h > 1e9:
-        raise ModelInputError(f"h = {h!r} is too fine for a window of extent {extent:g} (the "
-                              "reach l1 + l2 + w/2 + r, or the window of --xlim/--ylim): that "
-                              "grid does not fit in memory")
-    if grid.xlim is None:
-        n = math.floor(X / h + GRID_TOL)
-        i0, i1 = -n, n
-    else:
-        xmin, xmax = grid.xlim
-        if not xmin <= xmax:
-            raise ModelInputError(f"xlim must have XMIN <= XMAX, got {grid.xlim!r}")
-        i0, i1 = math.ceil(xmin / h - GRID_TOL), math.floor(xmax / h + GRID_TOL)
-    if grid.ylim is None:
-        j0, j1 = 0, math.floor((Y - part.r) / h + GRID_TOL)
-    else:
-        ymin, ymax = grid.ylim
-        if not ymin <= ymax:
-            raise ModelInputError(f"ylim must have YMIN <= YMAX, got {grid.ylim!r}")
-        j0 = math.ceil((ymin - part.r) / h - GRID_TOL)
-        j1 = math.floor((ymax - part.r) / h + GRID_TOL)
-    if i1 < i0 or j1 < j0:
-        raise ModelInputError(f"the grid window holds no grid point at h = {h}")
-    return i0, i1, j0, j1
-
-
 def map_grid(design: Design, part: Part, grid: Grid,
              bytes_per_point: int = BYTES_PER_POINT) -> MapGrid:
     """The grid of one map, checked to fit in memory (`bytes_per_point`: what the caller will
@@ -140,44 +55,12 @@ def map_grid(design: Design, part: Part, grid: Grid,
                    windowed=grid.xlim is not None or grid.ylim is not None)
 
 
-def palm_half_width_steps(w: float, h: float) -> int | None:
-    """The palm half-width in whole grid steps, or None if it is not a whole number of steps."""
-    s = w / (2.0 * h)
-    return int(round(s)) if abs(s - round(s)) <= GRID_TOL else None
-
-
 def finger_offsets(i: np.ndarray, w: float, h: float) -> tuple[np.ndarray, np.ndarray]:
     """Finger-frame x offsets of the left and right finger for world columns i (model-notes D1)."""
     s = palm_half_width_steps(w, h)
     if s is not None:
         return (-i - s) * h, (i - s) * h
     return -(i * h) - 0.5 * w, i * h - 0.5 * w
-
-
-def available_memory() -> int:
-    """Bytes of memory available to a new computation (MemAvailable on Linux)."""
-    try:
-        with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 8 << 30
-
-
-def check_memory(n_points: int, what: str = "the grid",
-                 bytes_per_point: int = BYTES_PER_POINT) -> None:
-    """Refuse a grid whose working arrays would not fit in memory."""
-    need = n_points * bytes_per_point
-    available = available_memory()
-    if n_points > MAX_POINTS_DEFAULT or need > 0.5 * available:
-        raise ModelInputError(
-            f"{what} has {n_points:,} points and needs about {need / 2**30:.1f} GiB; "
-            f"that does not fit (about {available / 2**30:.1f} GiB free): raise h or narrow it")
 
 
 @dataclass

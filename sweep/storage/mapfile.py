@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 
 from .h5 import atomic_file, provenance, set_root_attrs, write_coordinate, write_variable
-from .maps import EnergyMap
-from .model import FINGER_NAMES
-from .schema import POINT_FIELDS
+from ..compute.maps import EnergyMap
+from ..model import FINGER_NAMES
+from ..schema import POINT_FIELDS
 
 
 def map_root_attrs(m: EnergyMap) -> dict:

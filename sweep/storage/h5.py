@@ -20,8 +20,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__
-from .outputs import make_parent, write_bytes_atomic
+from .. import __version__
+from ..outputs import make_parent, write_bytes_atomic
 
 
 @contextlib.contextmanager

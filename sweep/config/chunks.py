@@ -1,8 +1,8 @@
 """Cutting an ordered list of work items into contiguous index ranges. Pure functions.
 
 Items are numbered so that those sharing finger geometry form contiguous *groups* of equal size
-(`sweep.scene.ITEM_ORDER`). Cluster chunks are runs of whole groups whenever there are at least
-as many groups as chunks, balanced by an estimated cost per group; sub-chunks (the unit a run
+(`sweep.config.scene.ITEM_ORDER`). Cluster chunks are runs of whole groups whenever there are at
+least as many groups as chunks, balanced by an estimated cost per group; sub-chunks (the unit a run
 writes to disk) never straddle a group boundary. A range is a half-open ``(start, stop)`` pair.
 """
 from __future__ import annotations

@@ -46,11 +46,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .batch import summarize_cells
-from .model import TRAJECTORY_METHODS, Accuracy, ModelInputError
-from .outputs import write_bytes_atomic, write_text_atomic
-from .scene import Scene
-from .schema import SUMMARY_FIELDS
+from ..compute.batch import summarize_cells
+from ..model import TRAJECTORY_METHODS, Accuracy, ModelInputError
+from ..outputs import write_bytes_atomic, write_text_atomic
+from ..config.scene import Scene
+from ..schema import SUMMARY_FIELDS
 
 CAGING_AREA = SUMMARY_FIELDS.index("caging_area")
 # Summary columns the convergence study keeps per map.
@@ -304,7 +304,7 @@ def check_sample(n_sample) -> None:
 
 def parse_witness(text: str) -> Witness:
     """'L1,L2,R1,R2,W,R,MU' -> Witness, validated like any map's inputs (ModelInputError)."""
-    from .model import Command, Design, Limits, Part, validate_inputs
+    from ..model import Command, Design, Limits, Part, validate_inputs
 
     try:
         values = [float(v) for v in text.split(",")]

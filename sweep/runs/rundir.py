@@ -1,14 +1,14 @@
 """The life of a run on disk: every path name, work directories and their parts, the chunked run
 directory's manifest, shards, status and merge.
 
-File formats (what a block or a store holds) are `sweep.store`'s; how a file is locked, written
-atomically and cleaned up is `sweep.outputs`'. This module decides which files a run has and
+File formats (what a block or a store holds) are `sweep.storage.store`'s; how a file is locked,
+written atomically and cleaned up is `sweep.outputs`'. This module decides which files a run has and
 what state they are in:
 
 - one machine (`SingleRun`): ``RESULTS``, its work directory ``RESULTS.parts/`` (one part file
   ``items-SSSSSSSS-EEEEEEEE.h5`` per finished sub-chunk, `part_path`) and ``RESULTS.maps/``;
 - the refinement of any store (`refine_dir`): ``RESULTS.refine/`` (one file per finished batch
-  of maps, `sweep.refine`);
+  of maps, `sweep.runs.refine`);
 - a cluster run (`RunDir`): ``DIR/sweep-manifest.json``, ``DIR/shard-IIII-of-NNNN.h5``,
   ``DIR/parts/shard-IIII-of-NNNN/``, ``DIR/maps/``, ``DIR/logs/``.
 
@@ -24,14 +24,17 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from . import __version__
-from .chunks import Range, chunk_ranges
-from .maps import available_memory
-from .outputs import (OutputLock, claim_output, os_errors_named, remove_stale_temporaries,
-                      write_json_atomic)
-from .scene import Scene
-from .store import (KIND_SHARD, Block, CorruptFile, StoreError, assemble,
-                    assemble_manipulation, first_line, read_block, scene_from_frozen, write_store)
+from .. import __version__
+from ..config.chunks import Range, chunk_ranges
+from ..grid import available_memory
+from ..outputs import (
+    OutputLock, claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic,
+)
+from ..config.scene import Scene
+from ..storage.store import (
+    KIND_SHARD, Block, CorruptFile, StoreError, assemble, assemble_manipulation, first_line,
+    read_block, scene_from_frozen, write_store,
+)
 
 
 MANIFEST = "sweep-manifest.json"
@@ -95,7 +98,7 @@ class SingleRun:
 
 
 def refine_dir(store: Path) -> Path:
-    """Work directory of the refinement of the store `store` (`sweep.refine`): beside it."""
+    """Work directory of the refinement of the store `store` (`sweep.runs.refine`): beside it."""
     store = Path(store)
     return store.with_name(store.name + ".refine")
 

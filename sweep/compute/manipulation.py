@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from .kernels import hull as _hull
+from ..grid import REDUCTIONS
+from ..kernels import hull as _hull
 
 PARAMETER_NAMES = ("w", "l1", "l2", "r1", "r2")
 # The paper's search ranges, upper - lower (MODEL 1 table), in PARAMETER_NAMES order.
@@ -321,11 +322,6 @@ class PartReduction:
                 or out.first.shape[0] != out.offsets[-1]):
             raise ValueError("inconsistent part reduction arrays")
         return out
-
-
-#: The reductions kept per part: every counted force, and those where the fingers do not cross
-#: (MODEL 10: report how much of the metric comes from crossed fingers).
-REDUCTIONS = ("all", "uncrossed")
 
 
 @dataclass

@@ -32,9 +32,9 @@ can be the best, so only they are recomputed on finer grids. Per part (r, mu) an
 Every map's caging area depends on that map alone, and the plan of each level is a pure function
 of the screened values and the earlier levels' values, so the result does not depend on how the
 work was cut or interrupted. Work files: each batch of maps of a level is written atomically into
-a work directory beside the store (`STORE.refine/`, `sweep.rundir.refine_dir`); a rerun loads
+a work directory beside the store (`STORE.refine/`, `sweep.runs.rundir.refine_dir`); a rerun loads
 the finished batches and computes the rest. The refined values are then added to the store
-(`sweep.store.add_refinement`), which is rewritten atomically.
+(`sweep.storage.store.add_refinement`), which is rewritten atomically.
 
 Imports: scene, batch (one map's summaries at a given h), store, rundir, runner (threads),
 outputs. `sweep run` and `sweep merge` call `refine_store` after writing their store.
@@ -55,13 +55,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from . import __version__, batch
-from .outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
+from .. import __version__
+from ..compute import batch
+from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
 from .runner import numba_threads
-from .scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
-from .schema import (REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX)
-from .store import StoreError, add_refinement, read_store, scene_from_frozen
+from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
+from ..schema import REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX
+from ..storage.store import StoreError, add_refinement, read_store, scene_from_frozen
 
 CAGING_AREA = SUMMARY_INDEX["caging_area"]
 ROLE = {name: code for code, name in enumerate(REFINE_ROLE_MEANINGS)}
@@ -309,7 +310,7 @@ def _load_batch(path: Path, keys: np.ndarray):
 def prepare_work_dir(work: Path, identity: dict) -> None:
     """Create the work directory, or empty it when it holds another refinement's files. The
     caller holds the store's lock, so every temporary in it is a killed writer's."""
-    from .outputs import write_json_atomic
+    from ..outputs import write_json_atomic
 
     manifest = work / WORK_MANIFEST
     if manifest.exists():

@@ -16,7 +16,7 @@ import subprocess
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from .outputs import write_text_atomic
+from ..outputs import write_text_atomic
 
 
 def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,

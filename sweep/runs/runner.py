@@ -1,13 +1,13 @@
 """Running a sweep: the whole of it on one machine, or one chunk of it on a cluster node.
 
-Both go through `run_range`: the item range is cut into sub-chunks (`sweep.chunks.sub_ranges`,
-never across a geometry group); each finished sub-chunk is written atomically as one *part* file
-into a work directory, so a kill loses at most the sub-chunk in flight; a rerun lists the work
-directory, computes only what is missing and then assembles the final file (store or shard),
-again atomically. Each item's summaries depend on the item alone, so the result is bit-identical
-however the work was cut or interrupted.
+Both go through `run_range`: the item range is cut into sub-chunks
+(`sweep.config.chunks.sub_ranges`, never across a geometry group); each finished sub-chunk is
+written atomically as one *part* file into a work directory, so a kill loses at most the sub-chunk
+in flight; a rerun lists the work directory, computes only what is missing and then assembles the
+final file (store or shard), again atomically. Each item's summaries depend on the item alone, so
+the result is bit-identical however the work was cut or interrupted.
 
-The compute is `sweep.batch.summarize_cells`, looked up at call time (tests patch it).
+The compute is `sweep.compute.batch.summarize_cells`, looked up at call time (tests patch it).
 """
 from __future__ import annotations
 
@@ -21,15 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__, batch, mapfile, maps
-from .chunks import chunk_ranges, missing_ranges, sub_ranges
-from .model import Design, Grid, Part
-from .outputs import claim_output, remove_stale_temporaries
+from .. import __version__, grid
+from ..compute import batch, maps
+from ..storage import mapfile
+from ..config.chunks import chunk_ranges, missing_ranges, sub_ranges
+from ..model import Design, Grid, Part
+from ..outputs import claim_output, remove_stale_temporaries
 from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_path,
                      prepare_parts_dir)
-from .scene import Scene
-from .store import (KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble,
-                    assemble_manipulation, read_block, read_store, write_block, write_store)
+from ..config.scene import Scene
+from ..storage.store import (
+    KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, assemble_manipulation, read_block,
+    read_store, write_block, write_store,
+)
 
 #: Environment variables that may carry the chunk index of an array job, with the index of their
 #: first task. SLURM and PBS arrays are written 0..N-1 (as `sweep slurm` does); SGE (`-t 1-N`) and
@@ -118,7 +122,7 @@ def check_run_memory(scene: Scene, threads: int | None) -> None:
 
         threads = numba.get_num_threads()
     need = scene.memory_bytes(threads)
-    available = maps.available_memory()
+    available = grid.available_memory()
     if need > 0.8 * available:
         gib = 1024**3
         raise RunError(f"the run needs about {need / gib:.1f} GiB ({threads} threads x "

@@ -1,0 +1,190 @@
+"""The layers of the package (docs/architecture.md) as its imports obey them.
+
+Every `import` of a `sweep` module, at the top of a file or inside a function, is an edge of the
+import graph, read from the source with `ast` (nothing is imported). The checks:
+- an edge never points up the layers (a lower layer imports nothing from a higher one);
+- the graph has no cycle;
+- the command modules of `sweep/cli/` do not import each other (only the CLI's shared module);
+- the longest chain of imports stays within `MAX_CHAIN` modules.
+The checker itself is shown to catch a wrong-way import, a command importing another and a
+cycle on small synthetic graphs.
+"""
+from __future__ import annotations
+
+import ast
+import functools
+from pathlib import Path
+
+PACKAGE = Path(__file__).resolve().parent.parent / "sweep"
+
+#: The layers, lowest first: (name, module prefixes). A module belongs to the layer of its
+#: longest matching prefix; `sweep` itself is the package's `__init__` (its version). The config
+#: (a scene: what a run is) needs the vocabulary alone, so it sits below the computation: sizing
+#: a run in memory or checking a grid never reaches into kernels.
+LAYERS = (
+    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.outputs")),
+    ("config", ("sweep.config",)),
+    ("kernels", ("sweep.kernels",)),
+    ("one map / a batch of maps", ("sweep.compute",)),
+    ("storage", ("sweep.storage",)),
+    ("orchestration", ("sweep.runs", "sweep.report", "sweep.plot", "sweep.report_compare")),
+    ("CLI", ("sweep.cli", "sweep.cli_base", "sweep.cli_sweep", "sweep.cli_accuracy")),
+    ("program", ("sweep.program", "sweep.__main__")),
+)
+#: The CLI's shared module (options, parameter types, error handling), which every command
+#: module may import; the package `sweep.cli` itself assembles the commands.
+CLI_PACKAGE = "sweep.cli"
+CLI_SHARED = ("sweep.cli.common",)
+#: The longest import chain allowed, counted in modules (see docs/architecture.md, "Layers").
+MAX_CHAIN = 18
+
+
+def module_names(root: Path = PACKAGE) -> dict[str, Path]:
+    """Dotted module name -> source file, for every module of the package."""
+    names = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = list(path.relative_to(root.parent).with_suffix("").parts)
+        if parts[-1] == "__init__":
+            parts.pop()
+        names[".".join(parts)] = path
+    return names
+
+
+def imports_of(name: str, source: str, is_package: bool, known) -> set[str]:
+    """The package's modules that module `name` imports anywhere in `source`."""
+    package = name if is_package else name.rpartition(".")[0]
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[:len(package.split(".")) - node.level + 1]
+                module = ".".join(base + ([node.module] if node.module else []))
+            else:
+                module = node.module or ""
+            # `from package import submodule` imports the submodule
+            targets = [f"{module}.{a.name}" if f"{module}.{a.name}" in known else module
+                       for a in node.names]
+        else:
+            continue
+        for target in targets:
+            while target and target not in known:       # `import sweep.a.b` -> its module
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                found.add(target)
+    return found
+
+
+def import_graph(root: Path = PACKAGE) -> dict[str, set[str]]:
+    names = module_names(root)
+    return {name: imports_of(name, path.read_text(), path.name == "__init__.py", names)
+            for name, path in names.items()}
+
+
+def layer_of(module: str, layers=LAYERS) -> int:
+    best, rank = -1, None
+    for i, (_, prefixes) in enumerate(layers):
+        for prefix in prefixes:
+            if (module == prefix or module.startswith(prefix + ".")) and len(prefix) > best:
+                best, rank = len(prefix), i
+    if rank is None:
+        raise AssertionError(f"{module} belongs to no layer: add it to LAYERS in {__file__}")
+    return rank
+
+
+def violations(graph: dict[str, set[str]], layers=LAYERS, cli_package=CLI_PACKAGE,
+               cli_shared=CLI_SHARED) -> list[str]:
+    """Every wrong-way import, command-to-command import and cycle of `graph`, one line each."""
+    found = []
+    for module, targets in sorted(graph.items()):
+        for target in sorted(targets):
+            lo, hi = layer_of(module, layers), layer_of(target, layers)
+            if hi > lo:
+                found.append(f"{module} ({layers[lo][0]}) imports {target} ({layers[hi][0]})")
+            if (module.startswith(cli_package + ".") and target.startswith(cli_package + ".")
+                    and module not in cli_shared and target not in cli_shared):
+                found.append(f"command module {module} imports command module {target}")
+    state = {}
+
+    def visit(module, path):
+        state[module] = "open"
+        for target in sorted(graph.get(module, ())):
+            if state.get(target) == "open":
+                found.append("cycle: " + " -> ".join(path[path.index(target):] + [target]))
+            elif target not in state:
+                visit(target, path + [target])
+        state[module] = "done"
+
+    for module in sorted(graph):
+        if module not in state:
+            visit(module, [module])
+    return found
+
+
+def longest_chain(graph: dict[str, set[str]]) -> list[str]:
+    """The longest chain of imports (a list of modules), in an acyclic graph."""
+    @functools.lru_cache(maxsize=None)
+    def chain(module):
+        return max(([module] + chain(t) for t in graph.get(module, ())),
+                   key=len, default=[module])
+    return max((chain(m) for m in graph), key=len, default=[])
+
+
+def test_the_package_obeys_its_layers():
+    assert violations(import_graph()) == []
+
+
+def test_the_longest_import_chain_is_bounded():
+    chain = longest_chain(import_graph())
+    assert len(chain) <= MAX_CHAIN, " -> ".join(chain)
+
+
+def test_every_module_is_in_a_layer():
+    for module in import_graph():
+        layer_of(module)
+
+
+def test_the_checker_catches_a_wrong_way_import_a_command_import_and_a_cycle():
+    clean = {"sweep.model": set(), "sweep.kernels.finger": {"sweep.model"},
+             "sweep.compute.maps": {"sweep.kernels.finger", "sweep.model"},
+             "sweep.config.scene": {"sweep.model"},
+             "sweep.cli.common": set(), "sweep.cli.run": {"sweep.cli.common", "sweep.config.scene"},
+             "sweep.cli.map": {"sweep.cli.common", "sweep.compute.maps"},
+             "sweep.cli": {"sweep.cli.run", "sweep.cli.map"}}
+    assert violations(clean) == []
+    assert longest_chain(clean) == ["sweep.cli", "sweep.cli.map", "sweep.compute.maps",
+                                    "sweep.kernels.finger", "sweep.model"]
+    # the config layer reaching up into a map's computation (the issue's scene -> maps)
+    wrong = {**clean, "sweep.config.scene": {"sweep.model", "sweep.compute.maps"}}
+    assert violations(wrong) == [
+        "sweep.config.scene (config) imports sweep.compute.maps "
+        "(one map / a batch of maps)"]
+    # the vocabulary reaching into the kernels
+    wrong = {**clean, "sweep.model": {"sweep.kernels.finger"}}
+    found = violations(wrong)
+    assert "sweep.model (vocabulary) imports sweep.kernels.finger (kernels)" in found
+    assert any(line.startswith("cycle: ") for line in found)
+    # one command importing another for a shared option
+    wrong = {**clean, "sweep.cli.map": {"sweep.cli.common", "sweep.cli.run"}}
+    assert violations(wrong) == ["command module sweep.cli.map imports command module "
+                                 "sweep.cli.run"]
+    # a cycle inside one layer
+    wrong = {**clean, "sweep.compute.batch": {"sweep.compute.maps"},
+             "sweep.compute.maps": {"sweep.compute.batch"}}
+    assert violations(wrong) == ["cycle: sweep.compute.maps -> sweep.compute.batch -> "
+                                 "sweep.compute.maps"]
+
+
+def test_the_graph_reader_sees_every_form_of_import(tmp_path):
+    pkg = tmp_path / "sweep"
+    for name in ("model", "grid", "compute/maps", "compute/batch", "compute/__init__",
+                 "__init__"):
+        (pkg / name).parent.mkdir(parents=True, exist_ok=True)
+        (pkg / f"{name}.py").write_text("")
+    (pkg / "compute" / "batch.py").write_text(
+        "from . import maps\nfrom ..grid import x\n"
+        "def f():\n    import sweep.model\n    from .. import __version__\n")
+    graph = import_graph(pkg)
+    assert graph["sweep.compute.batch"] == {"sweep.compute.maps", "sweep.grid", "sweep.model",
+                                           "sweep"}
