@@ -93,7 +93,7 @@ POINT_FIELDS = (
     Field("tip_overlap", "bool", FINGER_DIMS,
           "the distal link passed through the part on its way to its "
           "limit (paper's answer kept, MODEL 4.3)", "1"),
-    # Computed with trajectories, kept in memory for pictures (sweep.plot), not written.
+    # Computed with trajectories, kept in memory for pictures (sweep.report.plot), not written.
     Field("end_index", "int64", MAP_DIMS,
           "flat (y, x) index of the point where the trajectory started here ends; -1 if none",
           "1", output="caging", in_map_file=False),

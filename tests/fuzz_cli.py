@@ -34,7 +34,7 @@ import h5py
 import numpy as np
 from click.testing import CliRunner
 
-from sweep.cli_sweep import SceneParam
+from sweep.cli.common import SceneParam
 
 #: Exit codes a command may end with besides 0 and 2: `sweep status` says "incomplete" with 1.
 #: (Documented in its help; any other command must end in 0 or 2.)

@@ -23,7 +23,7 @@ from click.testing import CliRunner
 from sweep.compute import batch
 from sweep.runs import runner
 from sweep.compute.batch import SUMMARY_FIELDS
-from sweep.cli_sweep import register
+from sweep.cli import register
 from sweep.runs.rundir import SingleRun, prepare_parts_dir
 from sweep.config.scene import scene_from_dict
 from sweep.runs.slurm import sbatch_script
@@ -478,7 +478,7 @@ def test_sigterm_and_sigkill_then_rerun_is_bit_identical(tmp_path):
     cfg = write_config(tmp_path / "k.yaml", tiny(**KILL_CFG))
     out = tmp_path / "k.h5"
     parts = tmp_path / "k.h5.parts"
-    cmd = [sys.executable, "-m", "sweep.cli_sweep", "run", str(cfg), "--out", str(out),
+    cmd = [sys.executable, "-m", "sweep.cli", "run", str(cfg), "--out", str(out),
            "--no-progress", "--threads", "1"]
     env = {k: v for k, v in os.environ.items() if k not in NO_ARRAY_ENV}
     seen = set()

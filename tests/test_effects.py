@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 from sweep.cli import main
-from sweep.cli_sweep import register
+from sweep.cli import register
 from sweep.compute.maps import compute_map
 from sweep.model import (END_NONE, Design, Effects, Grid, ModelInputError, Outputs,
                          Part)

@@ -7,7 +7,7 @@ import pytest
 from sweep.compute.maps import compute_map
 from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, REACHED,
                          Accuracy, Command, Design, Grid, Part)
-from sweep.plot import _title, plot_map, sliding_points, trajectory_path
+from sweep.report.plot import _title, plot_map, sliding_points, trajectory_path
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

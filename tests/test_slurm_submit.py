@@ -8,7 +8,7 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from sweep.cli_sweep import register
+from sweep.cli import register
 from sweep.runs.slurm import merge_script
 from sweep_cases import tiny, write_config
 

@@ -166,7 +166,7 @@ def test_sliding_is_the_default_and_discrete_means_grid8():
 def test_the_picture_draws_the_streamlines_the_map_ends_with(tmp_path):
     """For a continuous map the plot walks streamlines (not discrete paths), and each ends near
     the grid point the map's end_index names."""
-    from sweep.plot import plot_map, streamline_points
+    from sweep.report.plot import plot_map, streamline_points
 
     m = compute_map(MAP["design"], MAP["part"], grid=Grid(h=0.2),
                     accuracy=Accuracy(trajectory="continuous"))

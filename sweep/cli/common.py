@@ -1,4 +1,5 @@
-"""The one place where errors reach the user, for every command of the CLI.
+"""What the commands of the CLI share: the one place where errors reach the user, and the
+parameter types and options of more than one command (CONFIG, PATH, FILE, WAIT, THREADS).
 
 `user_errors()` turns what a user can cause or fix - bad input (`ModelInputError`, `SceneError`),
 an unusable file or directory (`StoreError`, `OutputError`, any `OSError`) - into one line on
@@ -96,7 +97,7 @@ def user_errors():
         except OSError as exc:
             if isinstance(exc, _user_error_types()):
                 raise UserError(str(exc)) from None
-            from .outputs import os_error_message
+            from ..outputs import os_error_message
 
             raise UserError(os_error_message(exc, exc.filename or "sweep", "failed")) from None
         except Exception as exc:
@@ -165,3 +166,38 @@ def printable_paths() -> None:
         if encoding == "utf8" and hasattr(stream, "reconfigure"):
             with contextlib.suppress(ValueError, OSError, io.UnsupportedOperation):
                 stream.reconfigure(errors="surrogateescape")
+
+
+# ---------------------------------------------------------------------------------------------
+# Parameter types and options shared by the commands
+# ---------------------------------------------------------------------------------------------
+class SceneParam(click.ParamType):
+    """A YAML sweep config, loaded, validated and expanded into a `sweep.config.scene.Scene`."""
+
+    name = "config"
+
+    def convert(self, value, param, ctx):
+        from ..model import ModelInputError
+        from ..config.scene import Scene, load_scene
+
+        if isinstance(value, Scene):
+            return value
+        try:
+            scene = load_scene(value)
+        except ModelInputError as exc:
+            # a bad config is not a usage mistake: one line naming the file and key, exit 2
+            msg = str(exc)
+            if not msg.startswith((str(value), Path(value).name)):
+                msg = f"{value}: {msg}"
+            raise UserError(msg) from None
+        return scene
+
+
+CONFIG = SceneParam()
+PATH = click.Path(path_type=Path)
+FILE = click.Path(dir_okay=False, path_type=Path)
+WAIT = click.option("--wait", is_flag=True,
+                    help="If another sweep is writing the same output, wait for it instead of "
+                         "stopping at once.")
+THREADS = click.option("--threads", type=int, default=None,
+                       help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")

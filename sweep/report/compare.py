@@ -29,37 +29,17 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from . import __version__
-from .report import (
-    DESIGN_DIMS,
-    MARKER,
-    NOTE_UNITLESS,
-    PARAMETERS,
-    REPRESENTATIVE_COLOURS,
-    TIE_DIGITS,
-    ReportError,
-    StoreData,
-    _compute_best_map,
-    _design_text,
-    _lattice_edges,
-    _png,
-    best_caging_rows,
-    candidate_rows,
-    caging_tip_parts,
-    csv_bytes,
-    draw_usage,
-    fmt,
-    identity,
-    manipulation_rows,
-    md_table,
-    open_store,
-    report_files,
-    representative_rows,
-    resolve_top_k,
-    usage_rows,
-)
+from .. import __version__
+from .caging import best_caging_rows
+from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, ReportError, StoreData,
+                   compute_best_map, csv_bytes, design_text, fmt, identity, md_table, open_store,
+                   report_files, resolve_top_k)
+from .plot import draw_map_panel
+from .manipulation import candidate_rows, lattice_edges, manipulation_rows
+from .style import NOTE_UNITLESS, REPRESENTATIVE_COLOURS, SCENE_COLOURS, png
+from .tip import caging_tip_parts, representative_rows
+from .usage import draw_usage, usage_rows
 
-SCENE_COLOURS = ("#1f77b4", "#d62728")  # scene 1, scene 2 in every figure
 FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
          "representative_designs.csv", "manipulation.png", "manipulation.csv",
          "scenario_a_candidates.csv", "parameter_usage.png", "parameter_usage.csv",
@@ -183,7 +163,7 @@ def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
 
 def representatives(st1: StoreData, st2: StoreData) -> list[dict]:
     """Each scene's three representative designs of the caging-versus-tip parts (the rules of
-    `sweep.report.representative_designs`)."""
+    `sweep.report.tip.representative_designs`)."""
     rows = []
     for s, st in (("1", st1), ("2", st2)):
         for row in representative_rows(st):
@@ -285,8 +265,6 @@ def _short(st: StoreData) -> str:
 def best_designs_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -> Figure:
     """Per part two panels, scene 1 then scene 2: each scene's best design and its map; the
     pair framed red where the best gripper changes."""
-    from .plot import draw_map_panel
-
     n_r, n_mu = st1.r.size, st1.mu.size
     fig = Figure(figsize=(8.6 * n_r + 0.5, 3.4 * n_mu + 1.4), dpi=90, layout="constrained")
     FigureCanvasAgg(fig)
@@ -297,7 +275,7 @@ def best_designs_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -
         for s, st in ((0, st1), (1, st2)):
             tag = str(s + 1)
             design = {d: row[f"{d}_{tag}"] for d in DESIGN_DIMS}
-            m = _compute_best_map(st, design, ri, mi)
+            m = compute_best_map(st, design, ri, mi)
             ax = axes[mi, 2 * ri + s]
             text = (f"{_short(st)}: r={row['r']:g}, μ={row['mu']:g}\n"
                     f"l1={design['l1']:g} l2={design['l2']:g} R={fmt(row[f'R_{tag}'])} "
@@ -406,7 +384,7 @@ def manipulation_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figu
     axs = bottom.subplots(1, 2, sharex=True, sharey=True)
     mesh = None
     for axp, st, (x, y, v), total in zip(axs, (st1, st2), maps, (row["b_1"], row["b_2"])):
-        mesh = axp.pcolormesh(_lattice_edges(x, h), _lattice_edges(y, h),
+        mesh = axp.pcolormesh(lattice_edges(x, h), lattice_edges(y, h),
                               np.ma.masked_where(v <= 0, v), cmap="magma_r", vmin=0.0,
                               vmax=vmax, shading="flat")
         axp.set_aspect("equal")
@@ -489,10 +467,10 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write("scenario_a_candidates.csv", csv_bytes(rep.candidates, CAND_COLUMNS))
         write("manipulation.csv", csv_bytes(rep.manipulation, MANIP_COLUMNS))
         write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
-        write("parameter_usage.png", _png(usage_figure(st1, st2, rep.usage)))
-        write("manipulation.png", _png(manipulation_figure(st1, st2, rep)))
-    write("caging_vs_tip.png", _png(caging_tip_figure(st1, st2, rep)))
-    write("best_designs.png", _png(best_designs_figure(st1, st2, rep.best, log)))
+        write("parameter_usage.png", png(usage_figure(st1, st2, rep.usage)))
+        write("manipulation.png", png(manipulation_figure(st1, st2, rep)))
+    write("caging_vs_tip.png", png(caging_tip_figure(st1, st2, rep)))
+    write("best_designs.png", png(best_designs_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
     finish()
     return rep
@@ -654,7 +632,7 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
                 continue
             L.append(f"- {_part(row)}: {row[f'certification_{s}']} at h = "
                      f"{fmt(row[f'finest_h_{s}'])}: "
-                     + "; ".join(f"{_design_text(m)} {fmt(m['refined_caging_area'])} ± "
+                     + "; ".join(f"{design_text(m)} {fmt(m['refined_caging_area'])} ± "
                                  f"{fmt(m['refined_error'])}" for m in members) + ".")
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, `caging_vs_tip.csv`, "
           "`representative_designs.csv`)", "",

@@ -1,8 +1,8 @@
-"""Command line: `sweep map` for one energy map, plus the sweep commands of `sweep.cli_sweep`.
+"""`sweep map`: one energy map (`sweep.compute.maps.compute_map`), written to a map file and
+optionally drawn.
 
 Input is validated once, here at the edge, before anything is written: a bad value gives a
-one-line message and exit code 2 (`sweep.cli_base.user_errors`, which every command runs in).
-Only click is imported at start-up, so Ctrl-C in the first second is handled like any other.
+one-line message and exit code 2 (`sweep.cli.common.user_errors`, which every command runs in).
 """
 from __future__ import annotations
 
@@ -12,25 +12,11 @@ from pathlib import Path
 
 import click
 
-from . import __version__
-from .cli_base import SweepGroup, UserError, real_path
-from .cli_accuracy import accuracy as accuracy_command
-from .cli_sweep import COMMANDS as SWEEP_COMMANDS
-from .model import TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy  # plain Python: cheap
+from ..model import TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy  # plain Python: cheap
+from .common import SweepCommand, UserError, real_path
 
 
-@click.group(cls=SweepGroup,
-             context_settings=dict(help_option_names=["-h", "--help"], max_content_width=100))
-@click.version_option(__version__, prog_name="sweep")
-def main():
-    """Friction-based potential energy maps for two-finger tendon-pulley grippers.
-
-    `sweep map` computes one map (one design, one part, one command); the sweep commands run the
-    paper's design-space search from a YAML config, on one machine or as an HPC array job.
-    """
-
-
-@main.command("map")
+@click.command("map", cls=SweepCommand)
 @click.option("--l1", type=float, required=True, help="Proximal link length.")
 @click.option("--l2", type=float, required=True, help="Distal link length.")
 @click.option("--r1", type=float, required=True, help="Proximal pulley radius.")
@@ -93,12 +79,13 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from .compute.maps import compute_map, map_grid
-    from .grid import map_bytes_per_point
-    from .model import (Command, Design, Grid, Limits, ModelInputError, Part,
-                        validate_inputs, validate_scene)
-    from .outputs import claim_output
-    from .runs.runner import RunError, numba_threads, resolve_threads
+    from ..compute.maps import compute_map, map_grid
+    from ..grid import map_bytes_per_point
+    from ..model import (
+        Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,
+    )
+    from ..outputs import claim_output
+    from ..runs.runner import RunError, numba_threads, resolve_threads
 
     design = Design(l1, l2, r1, r2, w)
     part = Part(r, mu)
@@ -126,7 +113,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     if plot_path is not None and real_path(plot_path) == real_path(out):
         raise UserError(f"--plot: {plot_path} is also --out; the picture would replace the map")
 
-    from .storage.mapfile import describe, write_map
+    from ..storage.mapfile import describe, write_map
 
     # Both outputs are checked and locked before the map is computed.
     # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
@@ -152,7 +139,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
                        "unreached): widen --xlim/--ylim or check the design", err=True)
         click.echo(f"wrote {out}")
         if plot_path is not None:
-            from .plot import plot_map
+            from ..report.plot import plot_map
 
             plot_map(m, plot_path)
             click.echo(f"wrote {plot_path}")
@@ -161,8 +148,8 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 def _check_window_meets_reach(design, part, grid):
     """A window wholly outside the reach would give a map with no point to speak of (every
     point unreached, or below the palm row and infeasible): refused, ModelInputError."""
-    from .grid import reach
-    from .model import PALM_TOL, ModelInputError
+    from ..grid import reach
+    from ..model import PALM_TOL, ModelInputError
 
     X, Y = reach(design, part)
     if grid.xlim is not None and (grid.xlim[1] < -X or grid.xlim[0] > X):
@@ -181,7 +168,7 @@ def _check_window_meets_reach(design, part, grid):
 
 def _outputs_from_flags(spec, forces):
     """The Outputs of `--outputs` (and the older `--forces`); ModelInputError if bad."""
-    from .model import ModelInputError, Outputs
+    from ..model import ModelInputError, Outputs
 
     if spec is None:
         return Outputs(forces=forces)
@@ -195,7 +182,7 @@ def _outputs_from_flags(spec, forces):
 
 def _effects_from_flags(spec, k1, k2, mu):
     """The Effects of `--effects`, `--K1`, `--K2`; ModelInputError if bad."""
-    from .model import EFFECT_NAMES, Effects, ModelInputError
+    from ..model import EFFECT_NAMES, Effects, ModelInputError
 
     if spec is None:
         names = ["friction"]
@@ -218,11 +205,3 @@ def _effects_from_flags(spec, k1, k2, mu):
                               f"so --mu must be 0 (got {mu}); add friction to keep it")
     return Effects(**{n: n in names for n in EFFECT_NAMES},
                    spring_k1=float(k1 or 0.0), spring_k2=float(k2 or 0.0))
-
-
-for _command in (*SWEEP_COMMANDS, accuracy_command):
-    main.add_command(_command)
-
-
-if __name__ == "__main__":  # pragma: no cover  (the program itself: `python -m sweep`)
-    main()

@@ -10,8 +10,7 @@ from pathlib import Path
 
 import click
 
-from .cli_base import SweepCommand, UserError
-from .cli_sweep import CONFIG
+from .common import CONFIG, SweepCommand, UserError
 
 
 @click.command("accuracy", cls=SweepCommand,
@@ -34,11 +33,11 @@ def accuracy(config, n_sample, out, maps, progress):
     trajectory method converges as h halves; write tables (markdown + CSV) and plots, and
     name the recommended setting: the cheapest whose best design per part equals the
     reference's. Resumes if killed."""
-    from .runs.accuracy import (
+    from ..runs.accuracy import (
         DEFAULT_SAMPLE, check_sample, parse_witness, run_study, work_dir_key, write_outputs,
     )
-    from .model import ModelInputError
-    from .outputs import make_parent
+    from ..model import ModelInputError
+    from ..outputs import make_parent
 
     given = n_sample is not None
     n_sample = DEFAULT_SAMPLE if n_sample is None else n_sample

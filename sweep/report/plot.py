@@ -30,12 +30,16 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
-from .kernels.records import Hand
-from .kernels.trajectory import (SLIDE_REJOINS, downhill_neighbour, max_slide_points,
-                                 slide_successor)
-from .kernels.part import finger_polyline
-from .model import (EJECT, END_CAGED, INFEASIBLE, REACHED, UNREACHED, VERTEX_POINT)
-from .outputs import write_bytes_atomic
+from ..compute.maps import kernel_records
+from ..kernels.records import Hand
+from ..kernels.streamline import max_streamline_steps, streamline_walk
+from ..kernels.trajectory import (
+    SLIDE_REJOINS, downhill_neighbour, max_slide_points, slide_successor,
+)
+from ..kernels.part import finger_polyline
+from ..model import (EJECT, END_CAGED, INFEASIBLE, REACHED, STREAMLINE_STEP, UNREACHED,
+                     VERTEX_POINT)
+from ..outputs import write_bytes_atomic
 
 # How many trajectories to draw, roughly (starting points on a regular sub-lattice of the grid).
 TARGET_TRAJECTORIES = 90
@@ -82,7 +86,6 @@ def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
     """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectory.py, the
     default rule): grid steps, and where every neighbour is uphill the slide on the true
     energy; and the flat index of the point where it ends (the map's `end_index`)."""
-    from .compute.maps import kernel_records
 
     energy = np.asarray(m.fields["energy"], dtype=np.float64)
     point_class = np.asarray(m.fields["point_class"])
@@ -117,8 +120,6 @@ def streamline_points(start: int, energy: np.ndarray, point_class: np.ndarray,
                       y: np.ndarray) -> np.ndarray:
     """World points (n, 2) of the continuous trajectory from `start` (kernels/streamline.py, the
     rule the map's end points come from when it was computed with trajectory 'continuous')."""
-    from .kernels.streamline import max_streamline_steps, streamline_walk
-    from .model import STREAMLINE_STEP
 
     ny, nx = energy.shape
     steps = max_streamline_steps(ny, nx, STREAMLINE_STEP)

@@ -1,0 +1,268 @@
+"""The store as the report reads it (`open_store` -> `StoreData`), and what every experiment
+shares: design rankings, number formatting, CSV and markdown tables, a best map recomputed at the
+store's own settings."""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import __version__
+from ..compute.maps import compute_map
+from ..model import Design, Grid, Part
+from ..outputs import write_bytes_atomic
+from ..runs.refine import designs_of_coords, equal_r_classes, part_outcome, ranking
+from ..storage.store import StoreError, read_store, scene_from_frozen
+
+
+DESIGN_DIMS = ("l1", "l2", "r1", "r2", "w")
+
+
+CANDIDATE_DIMS = ("l1", "l2", "r1", "r2")
+
+
+PARAMETERS = ("w", "l1", "l2", "r1", "r2")
+
+
+MANIPULATION_VARIABLES = ("manipulation_a", "manipulation_a_area", "manipulation_b",
+                          "manipulation_b_area", "manipulation_b_uncrossed",
+                          "manipulation_b_poses", "parameter_usage",
+                          "manipulation_b_pose_value")
+
+
+#: The marker file of a report (one store, or two): what it was made from, and whether complete.
+MARKER = "report.json"
+#: Text format of every number of the report (tables, CSV and the reading alike).
+NUMBER = "{:.6g}"
+
+
+#: Significant digits at which Lambda (and Scenario A sums) are compared: designs with the same
+#: configurations (same R = r2/r1) sum the same scores in another order, which differs in the
+#: last bits (seen: 2913.620282318659 against ...658), and must tie.
+TIE_DIGITS = 9
+
+
+class ReportError(StoreError):
+    """A store the report cannot use (CLI: one line, exit code 2)."""
+
+
+def tie_key(values) -> np.ndarray:
+    """Values rounded to TIE_DIGITS significant digits (NaN as -inf): equal keys tie."""
+    v = np.asarray(values, dtype=np.float64)
+    out = np.array([float(f"{x:.{TIE_DIGITS}g}") for x in v.ravel()]).reshape(v.shape)
+    return np.where(np.isnan(out), -np.inf, out)
+
+
+def fmt(v) -> str:
+    """One number as the report prints it."""
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return "NaN" if math.isnan(v) else NUMBER.format(float(v))
+    return str(v)
+
+
+@dataclass
+class StoreData:
+    path: Path
+    ds: object                  # xarray.Dataset, loaded into memory
+    scene: object               # sweep.config.scene.Scene rebuilt from the frozen config
+    attrs: dict
+    manipulation: bool
+    _reps: np.ndarray | None = None     # equal-R class of every design (refined stores)
+
+    @property
+    def r(self) -> np.ndarray:
+        return self.ds["r"].values
+
+    @property
+    def mu(self) -> np.ndarray:
+        return self.ds["mu"].values
+
+    def parts(self) -> list[tuple[int, int]]:
+        """(r index, mu index) of every part, r-major (the order of every per-part table)."""
+        return [(ri, mi) for ri in range(self.r.size) for mi in range(self.mu.size)]
+
+    def per_design(self, name: str, ri: int, mi: int) -> np.ndarray:
+        """A summary variable of one part over every design, flat in store order."""
+        return self.ds[name].isel(r=ri, mu=mi).transpose(*DESIGN_DIMS).values.reshape(-1)
+
+    def design(self, flat: int) -> dict:
+        idx = np.unravel_index(flat, tuple(self.ds[d].size for d in DESIGN_DIMS))
+        return {d: float(self.ds[d].values[i]) for d, i in zip(DESIGN_DIMS, idx)}
+
+    @property
+    def refined(self) -> bool:
+        """The store holds the refinement stage's variables (`sweep.runs.refine`)."""
+        return "refine_status" in self.ds
+
+    def refinement(self, ri: int, mi: int):
+        """The part's refined answer (`sweep.runs.refine.PartOutcome`), None if not refined."""
+        if not self.refined:
+            return None
+        if self._reps is None:
+            self._reps = equal_r_classes(designs_of_coords(
+                {d: self.ds[d].values for d in DESIGN_DIMS}))
+        part = self.ds[["refine_status", "refine_finest_h", "refine_margin",
+                        "refine_bound_held"]].isel(r=ri, mu=mi)
+        out = part_outcome(self._reps, self.per_design("refine_role", ri, mi),
+                           self.per_design("refined_caging_area", ri, mi),
+                           self.per_design("refined_error", ri, mi),
+                           int(part["refine_status"]), float(part["refine_finest_h"]),
+                           float(part["refine_margin"]), bool(part["refine_bound_held"]))
+        return None if out.status == "not_refined" else out
+
+
+def open_store(path: Path) -> StoreData:
+    """Read a results store (ReportError / StoreError if it cannot be used)."""
+    import xarray as xr
+
+    view = read_store(path)                   # kind check, one-line StoreError otherwise
+    if "command" in view.dims:
+        raise ReportError(f"{path}: the report needs a store with one command "
+                          f"(this one has {view.coords['command'].size}); the paper's "
+                          "experiments use F_left = F_right = 1")
+    try:
+        with xr.open_dataset(path, engine="h5netcdf") as ds:
+            ds = ds.load()
+    except (OSError, ValueError) as exc:
+        raise ReportError(f"{path}: cannot read with xarray ({exc})") from None
+    scene = scene_from_frozen(view.frozen)
+    have = [v for v in MANIPULATION_VARIABLES if v in ds]
+    return StoreData(Path(path), ds, scene, view.attrs,
+                     manipulation=len(have) == len(MANIPULATION_VARIABLES))
+
+
+def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
+    """Flat design indices of one part, best first: the refined ranking in a refined store
+    (`sweep.runs.refine.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
+    if st.refinement(ri, mi) is not None:
+        return ranking(st.per_design("refine_role", ri, mi),
+                       st.per_design("refined_caging_area", ri, mi),
+                       st.per_design("caging_area", ri, mi))
+    return np.argsort(-tie_key(st.per_design("Lambda", ri, mi)), kind="stable")
+
+
+def best_design(st: StoreData, ri: int, mi: int) -> dict:
+    """The best caging design of one part and what backs it: the one place the report reads
+    it. In a refined store: the refined best (its refined caging area, error estimate, lead over
+    the runner-up, finest h, "certified" or the near-tie set, `near_tie` listing each member);
+    else the design of largest Lambda, first in store order among ties (`tie_key`)."""
+    lam = st.per_design("Lambda", ri, mi)
+    key = tie_key(lam)
+    out = st.refinement(ri, mi)
+    k = out.best if out is not None else int(np.argmax(key))
+    d = st.design(k)
+    row = dict(r=float(st.r[ri]), mu=float(st.mu[mi]), **d, R=d["r2"] / d["r1"],
+               Lambda=float(lam[k]),
+               caging_area=float(st.per_design("caging_area", ri, mi)[k]),
+               n_caged=int(st.per_design("n_caged", ri, mi)[k]),
+               n_tip_prehension=int(st.per_design("n_tip_prehension", ri, mi)[k]),
+               n_caged_points=int(st.per_design("n_caged_points", ri, mi)[k]),
+               n_caged_crossed=int(st.per_design("n_caged_crossed", ri, mi)[k]),
+               n_tied=(out.n_best if out is not None else
+                       int(np.count_nonzero(key == key[k]))), design_index=k)
+    if st.refined:
+        row.update(refined_caging_area=math.nan, refined_error=math.nan, margin=math.nan,
+                   finest_h=float(st.scene.h), certification="not refined", near_tie=[])
+    if out is not None:
+        row.update(refined_caging_area=float(out.value[k]), refined_error=float(out.error[k]),
+                   margin=out.margin, finest_h=out.finest_h,
+                   certification=("certified" if out.certified else
+                                  f"near-tie ({len(out.members)})")
+                   + ("" if out.bound_held else ", bound not confirmed"),
+                   near_tie=[dict(r=row["r"], mu=row["mu"], status=out.status, **st.design(m),
+                                  R=st.design(m)["r2"] / st.design(m)["r1"],
+                                  refined_caging_area=float(out.value[m]),
+                                  refined_error=float(out.error[m]), finest_h=out.finest_h,
+                                  bound_held=out.bound_held)
+                             for m in out.members])
+    return row
+
+
+def csv_bytes(rows: list[dict], columns: list[str]) -> bytes:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(columns)
+    for row in rows:
+        w.writerow([fmt(row[c]) for c in columns])
+    return buf.getvalue().encode()
+
+
+def md_table(rows: list[dict], columns: list[str], headers: list[str] | None = None) -> str:
+    headers = headers or columns
+    lines = ["| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
+    for row in rows:
+        lines.append("| " + " | ".join(fmt(row[c]) for c in columns) + " |")
+    return "\n".join(lines)
+
+
+def compute_best_map(st: StoreData, design: dict, ri: int, mi: int):
+    sc = st.scene
+    return compute_map(Design(**design), Part(r=float(st.r[ri]), mu=float(st.mu[mi])),
+                       sc.commands[0], Grid(h=sc.h), sc.limits, sc.accuracy, sc.effects)
+
+
+def design_text(d: dict) -> str:
+    return (f"l1={d['l1']:g} l2={d['l2']:g} r1={d['r1']:g} r2={d['r2']:g} w={d['w']:g} "
+            f"(R={fmt(d['r2'] / d['r1'])})")
+
+
+def part_text(row) -> str:
+    return f"r = {fmt(row['r'])}, mu = {fmt(row['mu'])}"
+
+
+def spread(values) -> str:
+    vals = sorted(set(fmt(v) for v in values), key=float)
+    return f"{len(vals)} distinct value{'s' if len(vals) != 1 else ''} ({', '.join(vals)})"
+
+
+# ---------------------------------------------------------------------------------------------
+# A report's files: what it is made from, written one by one (one store, or two)
+# ---------------------------------------------------------------------------------------------
+def identity(st: StoreData, top_k: int | None) -> dict:
+    """What a report is made from; equal identities make a rerun a no-op."""
+    a = st.attrs
+    return dict(store=str(st.path.resolve()), config_hash=a.get("config_hash"),
+                store_created_utc=a.get("created_utc"),
+                store_refined_utc=a.get("refine_created_utc"), top_k=top_k,
+                manipulation=st.manipulation, report_version=__version__)
+
+
+def resolve_top_k(st: StoreData, top_k: int | None) -> int | None:
+    if not st.manipulation:
+        if top_k is not None:
+            raise ReportError(f"{st.path}: --top-k needs the manipulation metric, which this "
+                              "store lacks (config option outputs: {manipulation: true})")
+        return None
+    if top_k is None:
+        top_k = int(st.attrs.get("manipulation_scenario_a_top_k", st.scene.scenario_a_top_k))
+    if top_k < 1:
+        raise ReportError(f"--top-k must be >= 1, got {top_k}")
+    return top_k
+
+
+def report_files(out_dir: Path, ident: dict, files: list[str]):
+    """A report's files, written one by one and atomically: (write, finish). An incomplete
+    marker is written first (a killed report is redone by a rerun, not taken as done);
+    `write(name, data)` writes a file and lists it in `files`; `finish()` writes the complete
+    marker, last."""
+    def marker(complete: bool) -> bytes:
+        extra = dict(files=sorted(files)) if complete else {}
+        return json.dumps(dict(ident, complete=complete, **extra), indent=1,
+                          sort_keys=True).encode()
+
+    write_bytes_atomic(out_dir / MARKER, marker(False))
+
+    def write(name: str, data: bytes):
+        write_bytes_atomic(out_dir / name, data)
+        files.append(name)
+
+    return write, lambda: write_bytes_atomic(out_dir / MARKER, marker(True))
