@@ -83,7 +83,7 @@ def _refined_header(view, designs, pick, pick_part):
     """Lines describing one part's refinement, the refined ranking and the outcome."""
     import numpy as np
 
-    from ..runs.refine import equal_r_classes, part_outcome, ranking
+    from ..storage.refined import equal_r_classes, part_outcome, ranking
 
     ref = view.refine
     role, value, error = (pick(ref[k]) for k in ("refine_role", "refined_caging_area",
@@ -113,7 +113,7 @@ def _refined_header(view, designs, pick, pick_part):
 def _print_top(view, ri, mui, n, by, ascending, command):
     import numpy as np
 
-    from ..runs.refine import designs_of_coords
+    from ..storage.refined import designs_of_coords
 
     sel = {"r": ri, "mu": mui}
     if "command" in view.dims:

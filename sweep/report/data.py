@@ -16,7 +16,7 @@ from .. import __version__
 from ..compute.maps import compute_map
 from ..model import Design, Grid, Part
 from ..outputs import write_bytes_atomic
-from ..runs.refine import designs_of_coords, equal_r_classes, part_outcome, ranking
+from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
 from ..storage.store import StoreError, read_store, scene_from_frozen
 
 
@@ -104,7 +104,7 @@ class StoreData:
         return "refine_status" in self.ds
 
     def refinement(self, ri: int, mi: int):
-        """The part's refined answer (`sweep.runs.refine.PartOutcome`), None if not refined."""
+        """The part's refined answer (`sweep.storage.refined.PartOutcome`), None if not refined."""
         if not self.refined:
             return None
         if self._reps is None:
@@ -142,7 +142,7 @@ def open_store(path: Path) -> StoreData:
 
 def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
     """Flat design indices of one part, best first: the refined ranking in a refined store
-    (`sweep.runs.refine.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
+    (`sweep.storage.refined.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
     if st.refinement(ri, mi) is not None:
         return ranking(st.per_design("refine_role", ri, mi),
                        st.per_design("refined_caging_area", ri, mi),

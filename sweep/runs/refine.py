@@ -61,15 +61,11 @@ from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
 from .runner import numba_threads
 from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
-from ..schema import REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX
+from ..schema import SUMMARY_INDEX
+from ..storage.refined import ROLE, STATUS, equal_r_classes
 from ..storage.store import StoreError, add_refinement, read_store, scene_from_frozen
 
 CAGING_AREA = SUMMARY_INDEX["caging_area"]
-ROLE = {name: code for code, name in enumerate(REFINE_ROLE_MEANINGS)}
-STATUS = {name: code for code, name in enumerate(REFINE_STATUS_MEANINGS)}
-#: Significant digits of R = r2/r1 that decide equal-R classes (0.02/0.06 is 0.33333333333333337
-#: in floating point, 0.06/0.18 is 0.3333333333333333).
-R_DIGITS = 12
 #: Grid points per work file (the maps of a level, whole cells): a few seconds of compute on two
 #: cores, so a kill loses little.
 BATCH_POINTS = 10_000_000
@@ -95,17 +91,6 @@ def part_table(scene: Scene) -> np.ndarray:
                                            range(len(scene.values["mu"])),
                                            range(len(scene.commands)))),
                     dtype=np.int64).reshape(-1, 3)
-
-
-def equal_r_classes(designs: np.ndarray) -> np.ndarray:
-    """Per design, the flat index of its class's representative: the first design in store
-    order with the same l1, l2, w and R = r2/r1 (to R_DIGITS significant digits)."""
-    rep: dict = {}
-    out = np.empty(designs.shape[0], dtype=np.int64)
-    for k, (l1, l2, r1, r2, w) in enumerate(designs):
-        key = (l1, l2, w, float(f"{r2 / r1:.{R_DIGITS}g}"))
-        out[k] = rep.setdefault(key, k)
-    return out
 
 
 def screened_matrix(scene: Scene, caging_area: np.ndarray) -> np.ndarray:
@@ -589,54 +574,3 @@ def refine_store(path: Path, settings: RefineSettings | None = None, threads: in
     return RefineResult(path, ref, wall, screening)
 
 
-# ---------------------------------------------------------------------------------------------
-# Reading the refined ranking (sweep top, sweep report)
-# ---------------------------------------------------------------------------------------------
-def ranking(role: np.ndarray, value: np.ndarray, screened: np.ndarray) -> np.ndarray:
-    """Flat design indices of one part, best first: the designs still in the running at the
-    finest level (best, then the near-tie set), then the eliminated contenders, then the rest;
-    inside each group by caging area at the finest level each design reached (the screened
-    value for the rest), store order among equal values."""
-    group = np.where(role >= ROLE["near_tie"], 2, np.where(role == ROLE["eliminated"], 1, 0))
-    v = np.where(np.isnan(value), screened, value)
-    v = np.where(np.isnan(v), -np.inf, v)
-    return np.lexsort((np.arange(v.size), -v, -group))
-
-
-def designs_of_coords(coords: dict) -> np.ndarray:
-    """The design table (as `design_table`) from a store's coordinates."""
-    return np.array(list(itertools.product(*(coords[k] for k in DESIGN_KEYS))),
-                    dtype=np.float64).reshape(-1, len(DESIGN_KEYS))
-
-
-@dataclass
-class PartOutcome:
-    """One part's refined answer, as read from a store (`part_outcome`)."""
-
-    status: str                 # REFINE_STATUS_MEANINGS
-    finest_h: float
-    margin: float               # lead of the best over the runner-up at the finest level
-    best: int                   # flat design index: the first design of the best's class
-    n_best: int                 # designs of the best's equal-R class (they tie exactly)
-    members: list               # the final set, best first: [best] when certified
-    value: np.ndarray           # per design: refined caging area (NaN: screened only)
-    error: np.ndarray           # per design: its error estimate
-    bound_held: bool = True     # the part's bound check (module docstring)
-
-    @property
-    def certified(self) -> bool:
-        return self.status == "certified"
-
-
-def part_outcome(reps: np.ndarray, role: np.ndarray, value: np.ndarray, error: np.ndarray,
-                 status: int, finest_h: float, margin: float,
-                 bound_held: bool = True) -> PartOutcome:
-    """A part's outcome from its refinement variables (per-design arrays flat in store order,
-    per-part scalars). `reps`: `equal_r_classes` of the store's designs."""
-    alive = np.flatnonzero(role >= ROLE["near_tie"])
-    members = [int(d) for d in alive if reps[d] == d]
-    members.sort(key=lambda d: (-value[d], d))
-    best = int(np.flatnonzero(role == ROLE["best"])[0]) if (role == ROLE["best"]).any() else -1
-    return PartOutcome(REFINE_STATUS_MEANINGS[int(status)], float(finest_h), float(margin), best,
-                       int(np.sum(role == ROLE["best"])), members, value, error,
-                       bool(bound_held))
