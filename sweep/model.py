@@ -174,6 +174,10 @@ class Outputs:
             raise ModelInputError("outputs: caging needs equilibrium (a caged point is stable)")
 
 
+#: The paper's map, the default outputs (files that have them say nothing of outputs).
+DEFAULT_OUTPUTS = tuple(Outputs().names_on())
+
+
 # Accepted accuracy settings. A smaller step would take more than pi / 1e-6 = 3e6 path
 # evaluations per point (a practical hang); a root tolerance below 1e-15 is below float
 # resolution on [0, pi].

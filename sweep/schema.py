@@ -127,7 +127,6 @@ POINT = {f.name: f for f in POINT_FIELDS}
 #: the effect keep the codes they always had.
 EFFECT_FLAGS = {"finger_mode": ("tip_contact", TIP_FINGER_MODE_MEANINGS)}
 FORCE_FIELDS = tuple(f.name for f in POINT_FIELDS if f.output == "forces")
-OUTPUTS = ("energy", "equilibrium", "caging", "forces")
 
 # ---------------------------------------------------------------------------------------------
 # Per-map summary fields, in the order of the kernels' summary row and of the stores

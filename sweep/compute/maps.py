@@ -20,8 +20,8 @@ from ..grid import (
     BYTES_PER_POINT, check_memory, grid_index_bounds, map_bytes_per_point, palm_half_width_steps,
 )
 from ..model import (
-    STREAMLINE_STEP, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Grid, Limits, Outputs,
-    Part, validate_inputs, validate_scene,
+    DEFAULT_OUTPUTS, STREAMLINE_STEP, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Grid,
+    Limits, Outputs, Part, validate_inputs, validate_scene,
 )
 from ..schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
 
@@ -79,7 +79,7 @@ class EnergyMap:
     y: np.ndarray
     fields: dict = field(default_factory=dict)
     attrs: dict = field(default_factory=dict)
-    outputs: tuple[str, ...] = ("energy", "equilibrium", "caging")
+    outputs: tuple[str, ...] = DEFAULT_OUTPUTS
 
 
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,

@@ -38,8 +38,9 @@ from .. import __version__
 from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, cell_bytes, cell_extent,
                    grid_index_bounds, part_lattice_columns)
 from ..model import (
-    IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS, Accuracy,
-    Command, Design, Effects, Grid, Limits, ModelInputError, Outputs, Part, validate_inputs,
+    EFFECT_NAMES, IMPLEMENTED_EFFECTS, OUTPUT_NAMES, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE,
+    TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Outputs,
+    Part, validate_inputs,
 )
 from ..schema import SUMMARY_FIELDS
 
@@ -62,8 +63,8 @@ GRID_KEYS = ("h", "bounds")
 GRID_BOUNDS = ("reach",)
 LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
 ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
-EFFECT_KEYS = ("friction", "tip_contact", "joint_springs", "finger_collision")
-MAP_OUTPUT_KEYS = ("energy", "equilibrium", "caging", "forces")  # model.OUTPUT_NAMES
+EFFECT_KEYS = EFFECT_NAMES
+MAP_OUTPUT_KEYS = OUTPUT_NAMES
 OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k")
 SPRING_KEYS = ("K1", "K2")
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)

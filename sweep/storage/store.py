@@ -33,6 +33,7 @@ from .h5 import (atomic_amend, atomic_file, iter_names, provenance, read_json_at
                  write_coordinate, write_variable)
 from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
 from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
+from ..model import DEFAULT_OUTPUTS
 from ..schema import (
     COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on,
 )
@@ -216,7 +217,7 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
             effects={k: bool(v) for k, v in scene.resolved()["effects"].items()},
             # absent: the default outputs energy, equilibrium, caging (older stores too)
             **({"outputs_on": " ".join(scene.outputs.names_on())}
-               if scene.outputs.names_on() != ["energy", "equilibrium", "caging"] else {}),
+               if tuple(scene.outputs.names_on()) != DEFAULT_OUTPUTS else {}),
             grid_h=scene.h, grid_bounds=scene.bounds, grid_note=GRID_NOTE,
             theta2_min_deg=scene.limits.theta2_min_deg, theta2_max_deg=scene.limits.theta2_max_deg,
             reconfig_step=scene.accuracy.reconfig_step, root_tol=scene.accuracy.root_tol,
