@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from sweep.runs import accuracy as acc
 from sweep.cli import main
-from sweep.config.scene import load_scene
+from sweep.config.parse import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "configs" / "small.yaml"

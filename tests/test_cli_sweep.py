@@ -25,7 +25,7 @@ from sweep.runs import runner
 from sweep.compute.batch import SUMMARY_FIELDS
 from sweep.cli import register
 from sweep.runs.rundir import SingleRun, prepare_parts_dir
-from sweep.config.scene import scene_from_dict
+from sweep.config.parse import scene_from_dict
 from sweep.runs.slurm import sbatch_script
 from sweep.storage.store import read_block, read_store
 from sweep_cases import tiny, write_config

@@ -14,7 +14,8 @@ from sweep.cli import register
 from sweep.compute.maps import compute_map
 from sweep.model import (END_NONE, Design, Effects, Grid, ModelInputError, Outputs,
                          Part)
-from sweep.config.scene import SceneError, scene_from_dict
+from sweep.config.scene import SceneError
+from sweep.config.parse import scene_from_dict
 from sweep_cases import tiny, write_config
 
 REFERENCE = ["--l1", "2.0", "--l2", "1.6", "--r1", "0.2", "--r2", "0.14", "--w", "0.8",
@@ -204,7 +205,7 @@ def test_outputs_from_names_refuses_unknown():
 def test_effect_configs_load(name, on):
     from pathlib import Path
 
-    from sweep.config.scene import load_scene
+    from sweep.config.parse import load_scene
 
     s = load_scene(Path(__file__).resolve().parent.parent / "configs" / f"{name}.yaml")
     assert s.effects.names_on() == on

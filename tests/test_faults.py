@@ -271,12 +271,12 @@ def test_a_live_lock_on_another_host_is_not_taken(tmp_path):
 # Ctrl-C and SIGTERM
 # ---------------------------------------------------------------------------------------------
 def test_ctrl_c_while_the_config_loads_is_one_line(tmp_path, monkeypatch):
-    import sweep.config.scene
+    import sweep.config.parse
 
     def interrupted(path):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(sweep.config.scene, "load_scene", interrupted)
+    monkeypatch.setattr(sweep.config.parse, "load_scene", interrupted)
     res = invoke("run", SMALL, "--out", tmp_path / "a.h5", "--no-progress")
     assert res.exit_code == 130 and "Traceback" not in res.output
     assert res.output.strip() == "sweep: interrupted; nothing was written"
@@ -317,7 +317,7 @@ def test_bad_config_values_are_named(tmp_path, changes, names):
 
 
 def test_unquoted_exponent_is_a_number_and_grid_defaults_to_the_papers(tmp_path):
-    from sweep.config.scene import load_scene
+    from sweep.config.parse import load_scene
 
     cfg = tiny()
     del cfg["grid"]

@@ -47,7 +47,7 @@ from hypothesis import strategies as st
 import fuzz_cli as fz
 from sweep.cli import main
 from sweep.model import EFFECT_NAMES, OUTPUT_NAMES, ModelInputError
-from sweep.config.scene import load_scene
+from sweep.config.parse import load_scene
 
 LONG = os.environ.get("SWEEP_LONG_FUZZ", "") not in ("", "0")
 LONG_CASES = int(os.environ.get("SWEEP_LONG_FUZZ_CASES", "20000"))

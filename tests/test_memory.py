@@ -10,7 +10,7 @@ from sweep.kernels.records import new_finger_arrays, new_force_arrays, new_outco
 from sweep.compute.manipulation import ManipulationChunk
 from sweep.grid import BYTES_PER_POINT, FORCE_BYTES_PER_POINT, map_bytes_per_point
 from sweep.model import Accuracy, Effects, Limits
-from sweep.config.scene import scene_from_dict
+from sweep.config.parse import scene_from_dict
 from sweep_cases import tiny, write_config
 
 

@@ -20,7 +20,8 @@ from click.testing import CliRunner
 from sweep.runs import refine as rf
 from sweep.compute.batch import summarize_cells
 from sweep.cli import main as cli
-from sweep.config.scene import RefineSettings, load_scene
+from sweep.config.scene import RefineSettings
+from sweep.config.parse import load_scene
 from sweep.schema import REFINE_FIELDS, REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX
 
 DATA = Path(__file__).parent / "data"

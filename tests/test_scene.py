@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import yaml
 
-from sweep.config.scene import ITEM_ORDER, STORE_DIMS, SceneError, load_scene, scene_from_dict
+from sweep.config.scene import ITEM_ORDER, STORE_DIMS, SceneError
+from sweep.config.parse import load_scene, scene_from_dict
 from sweep_cases import tiny, write_config
 
 CONFIGS = Path(__file__).resolve().parent.parent / "configs"

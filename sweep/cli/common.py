@@ -178,7 +178,8 @@ class SceneParam(click.ParamType):
 
     def convert(self, value, param, ctx):
         from ..model import ModelInputError
-        from ..config.scene import Scene, load_scene
+        from ..config.parse import load_scene
+        from ..config.scene import Scene
 
         if isinstance(value, Scene):
             return value

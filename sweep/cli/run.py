@@ -186,7 +186,8 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
                                  ("min_contenders", min_contenders)) if v is not None}
     settings = dataclasses.replace(settings, **changes)
     if changes:
-        from ..config.scene import SceneError, refine_settings
+        from ..config.parse import refine_settings
+        from ..config.scene import SceneError
 
         try:
             refine_settings(settings.as_dict(), scene.values, scene.h)

@@ -32,7 +32,8 @@ from ..config.chunks import Range, exact_cover
 from .h5 import (atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
 from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
-from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene, scene_from_dict
+from ..config.parse import scene_from_dict
+from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene
 from ..model import DEFAULT_OUTPUTS
 from ..schema import (
     COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on,
