@@ -115,9 +115,6 @@ class Grid:
     ylim: tuple[float, float] | None = None
 
 
-EFFECT_NAMES = ("friction", "tip_contact", "joint_springs", "finger_collision")
-
-
 @dataclass(frozen=True)
 class Effects:
     """Effects a scene may switch on (MODEL 9). `spring_k1`, `spring_k2` are the joint springs'
@@ -132,9 +129,6 @@ class Effects:
 
     def names_on(self) -> list[str]:
         return [k for k in EFFECT_NAMES if getattr(self, k)]
-
-
-IMPLEMENTED_EFFECTS = frozenset({"friction", "tip_contact", "joint_springs", "finger_collision"})
 
 #: What a map may compute (MODEL 9). energy: V and the finger configurations (always);
 #: equilibrium: part equilibrium; caging: containment, L_open, trajectories, caging scores and
@@ -242,8 +236,9 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         unsupported = set(effects.names_on()) - IMPLEMENTED_EFFECTS
         if unsupported:
             raise ModelInputError(f"effects not implemented yet: {', '.join(sorted(unsupported))}")
-        if effects.joint_springs:
-            validate_springs(design, command, limits, effects)
+        for spec in EFFECTS:
+            if spec.validate is not None and getattr(effects, spec.name):
+                spec.validate(design, command, limits, effects)
 
 
 
@@ -271,9 +266,68 @@ def validate_springs(design: Design, command: Command, limits: Limits, effects: 
 def validate_scene(effects: Effects, outputs: Outputs) -> None:
     """Combinations of effects and outputs that are not implemented (one-line ModelInputError)."""
     outputs.validate()
-    if outputs.forces and effects.joint_springs:
-        raise ModelInputError("forces with joint_springs are not implemented (the contact "
-                              "forces of MODEL 5.6 leave the springs out)")
-    if outputs.forces and effects.tip_contact:
-        raise ModelInputError("forces with tip_contact are not implemented (the contact forces "
-                              "of MODEL 5.6 have no tip contacts; model-notes D15)")
+    for spec in EFFECTS:
+        for output, why in spec.no_outputs:
+            if getattr(effects, spec.name) and getattr(outputs, output):
+                raise ModelInputError(f"{output} with {spec.name} are not implemented ({why})")
+
+
+# ---------------------------------------------------------------------------------------------
+# The effects, one home each (MODEL 9)
+# ---------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class EffectSpec:
+    """One effect, declared once: what the model, the config, `sweep map`, the schema and the
+    files know of it. Its switch is the `Effects` field `name`; its kernel block, if any, is
+    built in `sweep.compute.maps.kernel_records` (kernels/records.py `EffectBlocks`)."""
+
+    name: str               # YAML key under `effects:`, name in `--effects`, `Effects` field
+    #: its parameters, (YAML key and file attribute key, `Effects` field): given in the config
+    #: as a mapping `NAME: {KEY: value, ...}` (each >= 0), written to every file as that mapping
+    params: tuple = ()
+    params_text: str = ""   # what the parameters are, for the config's "give the ..." message
+    #: map outputs it cannot be combined with: (output, why) -> `validate_scene`'s message
+    no_outputs: tuple = ()
+    #: why the config refuses it with forces or the manipulation metric ("" if it does not)
+    sweep_refusal: str = ""
+    #: the validation of its parameters, `(design, command, limits, effects) -> None`, raising
+    #: ModelInputError (`validate_inputs` calls it when the effect is on)
+    validate: object = None
+    #: summary fields stored only with it (sweep.schema: absent from other maps and stores)
+    summary_fields: tuple = ()
+    #: categorical fields whose codes grow with it: field -> meanings of all its codes
+    flags: tuple = ()
+
+    def attributes(self, effects: "Effects") -> dict:
+        """Its parameters as a file or resolved-config attribute (empty when off or none)."""
+        if not (self.params and getattr(effects, self.name)):
+            return {}
+        return {self.name: {key: getattr(effects, field) for key, field in self.params}}
+
+
+EFFECTS = (
+    EffectSpec("friction"),
+    EffectSpec("tip_contact",
+               no_outputs=(("forces", "the contact forces of MODEL 5.6 have no tip contacts; "
+                                      "model-notes D15"),),
+               sweep_refusal="forces and the manipulation metric have no tip contacts "
+                             "(model-notes D15); switch them off",
+               flags=(("finger_mode", TIP_FINGER_MODE_MEANINGS),)),
+    EffectSpec("joint_springs", params=(("K1", "spring_k1"), ("K2", "spring_k2")),
+               params_text="stiffnesses, e.g. joint_springs: {K1: 0.01, K2: 0.01}",
+               no_outputs=(("forces", "the contact forces of MODEL 5.6 leave the springs out"),),
+               sweep_refusal="forces and the manipulation metric leave the springs out; switch "
+                             "them off",
+               validate=validate_springs),
+    EffectSpec("finger_collision", summary_fields=("n_collision_changed",)),
+)
+EFFECT_NAMES = tuple(spec.name for spec in EFFECTS)
+IMPLEMENTED_EFFECTS = frozenset(EFFECT_NAMES)
+
+
+def effect_attributes(effects: Effects) -> dict:
+    """Every effect's parameters that are on, as written to files and resolved configs."""
+    out = {}
+    for spec in EFFECTS:
+        out.update(spec.attributes(effects))
+    return out

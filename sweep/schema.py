@@ -16,8 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import (END_STATE_MEANINGS, FINGER_MODE_MEANINGS, POINT_CLASS_MEANINGS,
-                    TIP_FINGER_MODE_MEANINGS)
+from .model import EFFECTS, END_STATE_MEANINGS, FINGER_MODE_MEANINGS, POINT_CLASS_MEANINGS
 
 LENGTH = "length (unitless)"
 MAP_DIMS = ("y", "x")
@@ -125,7 +124,7 @@ POINT = {f.name: f for f in POINT_FIELDS}
 
 #: Categorical fields whose codes grow with an effect: (effect, meanings). Files of scenes without
 #: the effect keep the codes they always had.
-EFFECT_FLAGS = {"finger_mode": ("tip_contact", TIP_FINGER_MODE_MEANINGS)}
+EFFECT_FLAGS = {field: (spec.name, meanings) for spec in EFFECTS for field, meanings in spec.flags}
 FORCE_FIELDS = tuple(f.name for f in POINT_FIELDS if f.output == "forces")
 
 # ---------------------------------------------------------------------------------------------
@@ -174,7 +173,7 @@ SUMMARY = (
 
 #: Summary fields that exist only when an effect is on (maps and stores of other scenes keep
 #: the fields they always had).
-EFFECT_SUMMARY = {"n_collision_changed": "finger_collision"}
+EFFECT_SUMMARY = {name: spec.name for spec in EFFECTS for name in spec.summary_fields}
 
 
 def summary_field_on(name: str, effects_on) -> bool:

@@ -15,15 +15,14 @@ from pathlib import Path
 import yaml
 
 from ..grid import cell_bytes, cell_extent
-from ..model import (IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, TRAJECTORY_METHODS,
-                     Accuracy, Command, Design, Effects, Limits, ModelInputError, Outputs, Part,
-                     validate_inputs)
+from ..model import (EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE,
+                     TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
+                     ModelInputError, Outputs, Part, validate_inputs)
 from .scene import (ACCURACY_KEYS, COMMAND_KEYS, DESIGN_KEYS, EFFECT_KEYS, GRID_BOUNDS, GRID_KEYS,
                     LIMIT_KEYS, MAP_OUTPUT_KEYS, MAX_MAP_BYTES, MAX_REFINE_LEVELS,
                     MAX_VALUES_PER_PARAMETER, MIN_POINTS_PER_AXIS, OUTPUT_KEYS, PART_KEYS,
-                    RANGE_KEYS, REFINE_KEYS, RUN_KEYS, RefineSettings, SAVE_MAP_KEYS, SPRING_KEYS,
-                    STORE_DIMS, Scene, SceneError, TOO_MANY_POINTS, TOP_KEYS, grid_points,
-                    grid_shape, index_of)
+                    RANGE_KEYS, REFINE_KEYS, RUN_KEYS, RefineSettings, SAVE_MAP_KEYS, STORE_DIMS,
+                    Scene, SceneError, TOO_MANY_POINTS, TOP_KEYS, grid_points, grid_shape, index_of)
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -137,18 +136,19 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 
     eff = _mapping(raw.get("effects", {}), "effects", EFFECT_KEYS)
     flags = {}
-    springs = eff.get("joint_springs", False)
-    if isinstance(springs, dict):  # joint_springs: {K1: .., K2: ..} switches the effect on
-        spring = _mapping(springs, "effects.joint_springs", SPRING_KEYS, required=SPRING_KEYS)
-        for key in SPRING_KEYS:
-            value = _number(spring[key], f"effects.joint_springs.{key}")
-            if not value >= 0:
-                raise SceneError(f"effects.joint_springs.{key}: must be >= 0, got {value!r}")
-            flags["spring_k" + key[1]] = value
-        eff = {**eff, "joint_springs": True}
-    elif springs is True:
-        raise SceneError("effects.joint_springs: give the stiffnesses, e.g. "
-                         "joint_springs: {K1: 0.01, K2: 0.01}")
+    for spec in EFFECTS:
+        given = eff.get(spec.name, False)
+        if spec.params and isinstance(given, dict):  # NAME: {KEY: value, ...} switches it on
+            keys = tuple(key for key, _ in spec.params)
+            block = _mapping(given, f"effects.{spec.name}", keys, required=keys)
+            for key, field in spec.params:
+                value = _number(block[key], f"effects.{spec.name}.{key}")
+                if not value >= 0:
+                    raise SceneError(f"effects.{spec.name}.{key}: must be >= 0, got {value!r}")
+                flags[field] = value
+            eff = {**eff, spec.name: True}
+        elif spec.params and given is True:
+            raise SceneError(f"effects.{spec.name}: give the {spec.params_text}")
     for k in EFFECT_KEYS:
         v = eff.get(k, k == "friction")
         if not isinstance(v, bool):
@@ -216,13 +216,11 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
             # the sweep solves one finger field for both fingers at unit tension
             raise SceneError("effects.joint_springs: a sweep with springs needs the command "
                              "f_left = f_right = 1 (scale K1, K2 instead)")
-        if map_outputs.forces or manipulation:
-            raise SceneError("effects.joint_springs: forces and the manipulation metric leave "
-                             "the springs out; switch them off")
 
-    if effects.tip_contact and (map_outputs.forces or manipulation):
-        raise SceneError("effects.tip_contact: forces and the manipulation metric have no tip "
-                         "contacts (model-notes D15); switch them off")
+    for spec in EFFECTS:
+        if (spec.sweep_refusal and getattr(effects, spec.name)
+                and (map_outputs.forces or manipulation)):
+            raise SceneError(f"effects.{spec.name}: {spec.sweep_refusal}")
 
     refine = refine_settings(raw.get("refine", False), values, h)
 

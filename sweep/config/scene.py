@@ -31,10 +31,8 @@ import numpy as np
 from .. import __version__
 from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, cell_bytes, cell_extent,
                    grid_index_bounds, part_lattice_columns)
-from ..model import (
-    EFFECT_NAMES, OUTPUT_NAMES, Accuracy, Design, Effects, Grid, Limits, ModelInputError, Outputs,
-    Part,
-)
+from ..model import (EFFECT_NAMES, OUTPUT_NAMES, Accuracy, Design, Effects, Grid, Limits,
+                     ModelInputError, Outputs, Part, effect_attributes)
 from ..schema import SUMMARY_FIELDS
 
 DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
@@ -59,7 +57,6 @@ ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
 EFFECT_KEYS = EFFECT_NAMES
 MAP_OUTPUT_KEYS = OUTPUT_NAMES
 OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k")
-SPRING_KEYS = ("K1", "K2")
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)
 RUN_KEYS = ("sub_chunk_cells",)
 REFINE_KEYS = ("levels", "bound", "min_contenders")
@@ -224,8 +221,7 @@ class Scene:
             item_order=list(ITEM_ORDER),
             # only when on / not the default, so that the hashes of configs without them stay
             # what they were (and stores of different scenes never merge)
-            **({"joint_springs": dict(K1=self.effects.spring_k1, K2=self.effects.spring_k2)}
-               if self.effects.joint_springs else {}),
+            **effect_attributes(self.effects),
             **self._resolved_outputs(),
         )
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from .h5 import atomic_file, provenance, set_root_attrs, write_coordinate, write_variable
 from ..compute.maps import EnergyMap
-from ..model import DEFAULT_OUTPUTS, FINGER_NAMES
+from ..model import DEFAULT_OUTPUTS, FINGER_NAMES, effect_attributes
 from ..schema import POINT_FIELDS
 
 
@@ -31,8 +31,7 @@ def map_root_attrs(m: EnergyMap) -> dict:
     # absent: the default outputs energy, equilibrium, caging (files written before outputs existed)
     if tuple(m.outputs) != DEFAULT_OUTPUTS:
         attrs["outputs_on"] = list(m.outputs)
-    if m.effects.joint_springs:
-        attrs["joint_springs"] = dict(K1=m.effects.spring_k1, K2=m.effects.spring_k2)
+    attrs.update(effect_attributes(m.effects))
     for key, value in m.attrs.items():
         attrs[key] = value
     attrs.update(provenance())
