@@ -33,9 +33,9 @@ def accuracy(config, n_sample, out, maps, progress):
     trajectory method converges as h halves; write tables (markdown + CSV) and plots, and
     name the recommended setting: the cheapest whose best design per part equals the
     reference's. Resumes if killed."""
-    from ..runs.accuracy import (
-        DEFAULT_SAMPLE, check_sample, parse_witness, run_study, work_dir_key, write_outputs,
-    )
+    from ..report.accuracy import write_outputs
+    from ..runs.accuracy import (DEFAULT_SAMPLE, check_sample, parse_witness, run_study,
+                                 work_dir_key)
     from ..model import ModelInputError
     from ..outputs import make_parent
 
