@@ -1,5 +1,5 @@
 """`sweep accuracy CONFIG`: what accuracy costs in time on the user's own config
-(sweep/accuracy.py, docs/accuracy.md)."""
+(sweep/runs/accuracy.py, sweep/report/accuracy.py, docs/accuracy.md)."""
 from __future__ import annotations
 
 import math
