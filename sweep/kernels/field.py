@@ -3,8 +3,8 @@
 
 The map pipeline, `map_from_fingers`: outcomes -> trajectories -> summary, from finger fields
 that the caller fills (directly with `finger_field`, or by gathering a shared field in
-`kernels.cells`). The sweep's shared-field path and the plot go through it; `sweep.maps.
-compute_map` through `map_from_fingers_parallel`, the same steps with the outcome rows in
+`kernels.cells`). The sweep's shared-field path and the plot go through it; `sweep.compute.
+maps.compute_map` through `map_from_fingers_parallel`, the same steps with the outcome rows in
 `prange`. Row functions do the work; `finger_field` and `outcome_rows_parallel` loop over rows
 with `prange` (one map, all threads), `finger_field_serial` and `map_from_fingers` run inside the
 sweep's own parallel loop over maps (Numba's default threading layer does not nest parallel
