@@ -1,8 +1,8 @@
 """What the manipulation metric (MODEL 10, Scenarios A and B) adds to the caging sweep's time.
 
-In one process, on the same items of configs/paper.yaml (--groups geometry groups (l1, l2, r),
-spread evenly over the sweep), rounds alternating: the caging summaries alone
-(`runner.compute_items`) and the summaries with the manipulation data
+In one process, on the same items of a config (--config, default configs/paper.yaml; --groups
+geometry groups (l1, l2, r), spread evenly over the sweep), the order swapped every round: the
+caging summaries alone (`runner.compute_items`) and the summaries with the manipulation data
 (`runner.compute_items_with_manipulation`: Scenario A per cell, Scenario B entries reduced into
 per-part hulls). Kernels are compiled or loaded first. Prints every repeat and the ratio of the
 medians.
@@ -23,13 +23,15 @@ def add_arguments(ap) -> None:
     ap.add_argument("--groups", type=int, default=6,
                     help="geometry groups (l1, l2, r) of the paper sweep, spread evenly [6]")
     ap.add_argument("--repeats", type=int, default=3, help="rounds [3]")
+    ap.add_argument("--config", type=Path, default=ROOT / "configs" / "paper.yaml",
+                    help="a config with `outputs: {manipulation: true}` [configs/paper.yaml]")
 
 
 def run(args) -> int:
     from sweep.runner import compute_items, compute_items_with_manipulation
     from sweep.scene import load_scene
 
-    scene = load_scene(ROOT / "configs" / "paper.yaml")
+    scene = load_scene(args.config)
     picks = np.linspace(0, scene.n_groups - 1, args.groups).round().astype(int)
     ranges = [(int(g) * scene.group_size, (int(g) + 1) * scene.group_size) for g in picks]
     n_maps = sum(b - a for a, b in ranges) * len(scene.values["w"])
@@ -43,6 +45,6 @@ def run(args) -> int:
     def measure(name):
         return timed(lambda: [compute[name](scene, a, b) for a, b in ranges])
 
-    print_side_by_side(f"{len(ranges)} geometry groups of configs/paper.yaml ({n_maps} maps, "
+    print_side_by_side(f"{len(ranges)} geometry groups of {args.config.name} ({n_maps} maps, "
                        f"h = {scene.h})", side_by_side(list(compute), measure, args.repeats))
     return 0

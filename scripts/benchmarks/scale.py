@@ -83,8 +83,9 @@ def shared_maps_equal(a: Path, b: Path) -> tuple[int, bool]:
         n = int(np.prod([p.size for p in pick_a]))
         same = True
         for name in ("Lambda", "caging_area", "n_caged", "n_reached", "n_equilibrium"):
-            va = fa[name][np.ix_(*pick_a)]
-            vb = fb[name][np.ix_(*pick_b)]
+            # h5py indexes one axis by a list at a time: read whole (summaries are small)
+            va = fa[name][...][np.ix_(*pick_a)]
+            vb = fb[name][...][np.ix_(*pick_b)]
             same &= bool(np.array_equal(va, vb, equal_nan=True))
     return n, same
 
