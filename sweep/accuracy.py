@@ -319,8 +319,20 @@ def parse_witness(text: str) -> Witness:
 
 
 def work_dir_key(scene: Scene, n_sample: int) -> str:
-    """Work files belong to one config (its hash) and one sample size."""
-    return hashlib.sha256(f"{scene.config_hash}:{n_sample}".encode()).hexdigest()[:16]
+    """Work files belong to one problem (the resolved config without its accuracy settings) and
+    one sample size. Every file in it names the settings it ran at (`Setting.key`) and, where
+    it depends on the sample, the sample (`sample_key`): a study rerun after a change of the
+    config's accuracy settings alone recomputes only what those settings change (the reference
+    and the ladder's other rungs are reused)."""
+    problem = {k: v for k, v in scene.resolved().items() if k != "accuracy"}
+    text = json.dumps(problem, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(f"{text}:{n_sample}".encode()).hexdigest()[:16]
+
+
+def sample_key(sample: np.ndarray) -> str:
+    """The sample's identity in its work files' names (the sample follows from the default
+    sweep, hence from the config's accuracy settings)."""
+    return hashlib.sha256(np.asarray(sample, dtype=np.int64).tobytes()).hexdigest()[:12]
 
 
 def convergence_groups(scene: Scene, default_areas: np.ndarray, witnesses) -> list:
@@ -369,7 +381,7 @@ def run_convergence(scene: Scene, groups: list, work: Path, progress=None) -> tu
         for n in range(CONVERGENCE_HALVINGS):
             h = scene.h / 2 ** n
             acc = replace(scene.accuracy, trajectory=method)
-            res = cached(work / f"convergence-{key}-{method}-h{h:.6g}.npz",
+            res = cached(work / f"convergence-{key}-{Setting('h', h, acc).key}.npz",
                          lambda h=h, acc=acc: convergence_summaries(scene, groups, h, acc))
             v = res["values"]
             area, stalled, reached, caged = (float(v[:, i].sum()) for i in range(4))
@@ -399,7 +411,8 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
              + (scene.refine is not None))
     all_cells = design_cells(scene)
     default = Setting("default", scene.h, scene.accuracy)
-    full = cached(work / "default_sweep.npz", lambda: timed_areas(scene, all_cells, default))
+    full = cached(work / f"default_sweep-{default.key}.npz",
+                  lambda: timed_areas(scene, all_cells, default))
     done = [1]
 
     def tell(label):
@@ -411,10 +424,12 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
         progress(1, total, "default sweep")
     sample = sample_cells(scene, n_sample, full["caging_area"])
     cells4 = all_cells[sample]
+    sampled = sample_key(sample)
     n_maps = cells4.shape[0] * scene.widths.size * len(parts(scene))
     results = {}
     for s in [reference, reference_coarse] + settings:
-        results[s.key] = cached(work / f"{s.key}.npz", lambda s=s: timed_areas(scene, cells4, s))
+        results[s.key] = cached(work / f"{s.key}-{sampled}.npz",
+                                lambda s=s: timed_areas(scene, cells4, s))
         tell(s.label)
     ref = results[reference.key]["caging_area"]
     rows = []
@@ -445,7 +460,8 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
     if scene.refine is not None:
         config_rung = results[Setting("h", scene.h, scene.accuracy).key]
         refined, refine_cost = refined_against_reference(
-            scene, cells4, config_rung, results[reference.key]["caging_area"], work)
+            scene, cells4, config_rung, results[reference.key]["caging_area"],
+            work / f"refine-{default.key}-{sampled}")
         tell("refinement of the sample")
     seconds = float(full["seconds"]) + sum(float(v["seconds"]) for v in results.values())
     seconds += sum(r["seconds_per_map"] for r in convergence) * sum(len(g[1]) for g in groups)
@@ -467,7 +483,7 @@ def refined_against_reference(scene: Scene, cells4: np.ndarray, screening: dict,
     n_parts = len(parts(scene))
     screened = screening["caging_area"].reshape(-1, n_parts)
     ref = reference.reshape(-1, n_parts)
-    out = refine_designs(scene, designs, screened, scene.refine, work / "refine")
+    out = refine_designs(scene, designs, screened, scene.refine, work)
     rows = []
     for k, part in enumerate(parts(scene)):
         role = out.role[:, k]

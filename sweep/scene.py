@@ -708,7 +708,7 @@ def refine_settings(spec, values: dict, h: float) -> RefineSettings | None:
     settings = RefineSettings(levels=levels, bound=bound, min_contenders=floor)
     finest = settings.level_h(h, levels)
     try:
-        _check_memory(values, finest)
+        _check_memory(values, finest, manipulation=False)  # refinement recomputes summaries only
     except SceneError as exc:
         raise SceneError(f"refine.levels: the finest level h/2^{levels} = {finest:g}: "
                          f"{str(exc).removeprefix('grid.h: ')}") from None

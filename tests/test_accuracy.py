@@ -153,6 +153,21 @@ def test_accuracy_command_on_the_small_config(tmp_path):
     assert res.exit_code == 0, res.output
     assert [p.stat().st_mtime_ns for p in work] == stamps
     assert f"--map {witness}" in text
+    # a change of the config's accuracy settings alone keeps the work directory: the
+    # reference (its own settings, the same sample) is read back, the config's rungs recomputed
+    coarser = tmp_path / "small-refine-coarser-step.yaml"
+    coarser.write_text(config.read_text().replace("reconfig_step: 0.01", "reconfig_step: 0.05"))
+    assert load_scene(coarser).accuracy.reconfig_step == 0.05
+    res = runner.invoke(main, ["accuracy", str(coarser), "--out", str(out), "--no-progress",
+                               "--map", witness])
+    assert res.exit_code == 0, res.output
+    assert len(list(out.glob("work-*"))) == 1
+    reference = [p for p in work for h in (scene.h / 8, scene.h / 4)
+                 if p.name.startswith(f"h{h:.6g}_s0.002_t1e-12_sliding-")]
+    assert len(reference) == 2  # the reference and its own check one halving coarser
+    assert all(p.stat().st_mtime_ns == s for p, s in zip(work, stamps) if p in reference)
+    rungs = sorted(out.glob("work-*/h*_s0.05_t1e-12_sliding-*.npz"))
+    assert any(p not in work for p in rungs)  # the config's own rungs are new
 
 
 @pytest.mark.parametrize("args", [["--sample", "0"], ["--sample", "-3"], ["--map", "1,2,3"],
