@@ -42,8 +42,11 @@ lint: $(STAMP)
 test-slurm: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider tests/slurm
 
+# Benchmarks, one subcommand each (docs/performance.md): `make bench` runs the kernels against the
+# paper-style baseline; `make bench ARGS="collision --repeats 7"`, `make bench ARGS=--help`.
+ARGS ?= baseline
 bench: $(STAMP)
-	$(PY) scripts/bench.py
+	$(PY) scripts/bench.py $(ARGS)
 
 # The paper's whole design-space search: 86,400 maps (a few minutes on 2 cores); resumes if killed.
 paper: $(STAMP)

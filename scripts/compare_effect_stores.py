@@ -13,7 +13,7 @@ import sys
 
 import numpy as np
 
-from sweep.store import read_store
+from sweep.storage.store import read_store
 
 COUNTS = ("n_reached", "n_vertex", "n_eject", "n_unreached", "n_infeasible", "n_equilibrium",
           "n_caged", "n_caged_points", "n_caged_crossed")
@@ -85,7 +85,7 @@ def compare_partial(base_path, parts_dir, l1_best=None):
     from pathlib import Path
 
     from sweep.schema import SUMMARY_FIELDS
-    from sweep.store import read_block
+    from sweep.storage.store import read_block
 
     base = read_store(base_path)
     # store dims (l1 l2 r1 r2 w r mu) -> item order (l1 l2 r [command] r1 r2 mu) x w

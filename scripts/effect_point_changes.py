@@ -14,7 +14,7 @@ import argparse
 
 import numpy as np
 
-from sweep.maps import compute_map
+from sweep.compute.maps import compute_map
 from sweep.model import POINT_CLASS_MEANINGS, Accuracy, Command, Design, Effects, Grid, Limits, Part
 
 TABLE = dict(l1=np.round(np.arange(0.4, 2.01, 0.2), 10), l2=(0.4, 0.8, 1.2, 1.6),

@@ -11,21 +11,19 @@ least squares at every node, then bisect), the energy (MODEL 6) and the point cl
 applied, one Python call chain per point.
 
 This is the reference the speed benchmark compares the Numba kernels against (same maps, same
-classes). It is realistic, not tuned: analytic Jacobians and a geometric first guess for every
-solve, a couple of extra starts when the first one does not converge, and warm starts along the
-reconfiguration path. Knife-edge points can be classed differently from the kernels: the solver
-accepts a loop whose exact solution lies outside a bound by up to ~RES_TOL (MODEL 5.5 uses 1e-12).
+classes: `scripts/bench.py baseline`; points/s of one map alone: `scripts/bench.py
+baseline-map`). It is realistic, not tuned: analytic Jacobians and a geometric first guess for
+every solve, a couple of extra starts when the first one does not converge, and warm starts
+along the reconfiguration path. Knife-edge points can be classed differently from the kernels:
+the solver accepts a loop whose exact solution lies outside a bound by up to ~RES_TOL (MODEL 5.5
+uses 1e-12).
 
 Conventions (docs/model-notes.md): finger index 0 = left, 1 = right; angles in radians; a left
 finger is solved in its own mirrored frame. Infeasible points have ``point_class`` 0, NaN energy and
 ``finger_mode`` -1 (``NOT_SOLVED``); points skipped by ``max_points`` have ``point_class`` -1.
-
-CLI: ``python scripts/paper_baseline.py [--h 0.2] [--max-points N] ...`` prints points/s for one
-map.
 """
 from __future__ import annotations
 
-import argparse
 import math
 import sys
 import time
@@ -425,28 +423,3 @@ def baseline_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.1, xlim=
     return dict(x=x, y=y, point_class=pc, energy=energy, finger_mode=modes,
                 n_points_solved=n_solved, seconds=seconds)
 
-
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    for name, default in (("l1", 2.0), ("l2", 1.6), ("r1", 0.2), ("r2", 0.14), ("w", 0.8),
-                          ("r", 0.4), ("mu", 0.4), ("h", 0.2)):
-        ap.add_argument(f"--{name}", type=float, default=default)
-    ap.add_argument("--max-points", type=int, default=None)
-    ap.add_argument("--reconfig-step", type=float, default=0.01)
-    ap.add_argument("--root-tol", type=float, default=1e-9)
-    a = ap.parse_args(argv)
-    res = baseline_map(a.l1, a.l2, a.r1, a.r2, a.w, a.r, a.mu, h=a.h, max_points=a.max_points,
-                       reconfig_step=a.reconfig_step, root_tol=a.root_tol)
-    pc = res["point_class"]
-    counts = {name: int((pc == code).sum()) for code, name in enumerate(M.POINT_CLASS_MEANINGS)}
-    n, sec = res["n_points_solved"], res["seconds"]
-    print(f"design l1={a.l1} l2={a.l2} r1={a.r1} r2={a.r2} w={a.w}  part r={a.r} mu={a.mu}  "
-          f"h={a.h}")
-    print(f"grid {pc.shape[0]} x {pc.shape[1]}, solved {n} points in {sec:.2f} s: "
-          f"{n / sec:.1f} points/s")
-    print("classes:", counts)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -12,7 +12,7 @@ screening and its *screening gap*, (best screened - its screened) / best screene
 bound of at least the largest gap would have kept every part's fine best design among the
 contenders; the gaps of the last level are the ones that matter. Also printed: the best's value
 per level (does it converge?), the lead over the runner-up, and, for each candidate bound, what
-the refinement stage (sweep.refine's rule, min_contenders as given) would conclude and how many
+the refinement stage (sweep.runs.refine's rule, min_contenders as given) would conclude and how many
 grid points it would compute, relative to the screening's.
 
 The recomputed values are cached in `--work` (one file per level), so a rerun with more levels
@@ -26,10 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from sweep.refine import (compute_maps, design_table, equal_r_classes, part_table,
-                          screened_matrix, select_contenders, separate)
-from sweep.scene import RefineSettings, grid_points
-from sweep.store import read_store, scene_from_frozen
+from sweep.runs.refine import (
+    compute_maps, design_table, equal_r_classes, part_table, screened_matrix, select_contenders,
+    separate,
+)
+from sweep.config.scene import RefineSettings, grid_points
+from sweep.storage.store import read_store, scene_from_frozen
 
 
 def main(argv=None) -> None:
@@ -105,7 +107,7 @@ def main(argv=None) -> None:
     print("\nlargest screening gap per level: "
           + ", ".join(f"level {k}: {g:.4f}" for k, g in worst.items()))
 
-    # What the stage would do with each bound (sweep.refine's rule, on the cached values).
+    # What the stage would do with each bound (sweep.runs.refine's rule, on the cached values).
     screening = float(view.attrs.get("compute_seconds", np.nan))
     print(f"\nscreening: {scene.n_maps:,} maps, {screening:.1f} s of compute (store); "
           "estimated seconds of a bound = its grid points per level x the seconds per point "

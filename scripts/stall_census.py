@@ -28,10 +28,10 @@ import numpy as np
 from sweep.kernels.finger import solve_finger
 from sweep.kernels.point import finger_effects, point_outcome
 from sweep.kernels.records import Hand
-from sweep.maps import compute_map, kernel_records
+from sweep.compute.maps import compute_map, kernel_records
 from sweep.model import (END_STALLED, REACHED, VERTEX_POINT, Accuracy, Command, Design, Effects,
                          Grid, Limits, Part)
-from sweep.plot import sliding_points
+from sweep.report.plot import sliding_points
 
 PROBE_DIRECTIONS = 720
 PROBE_RADII = (1 / 4, 1 / 2, 1.0)  # times h: the resolution of the slide's cascade (D16)

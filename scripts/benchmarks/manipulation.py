@@ -1,0 +1,50 @@
+"""What the manipulation metric (MODEL 10, Scenarios A and B) adds to the caging sweep's time.
+
+In one process, on the same items of a config (--config, default configs/paper.yaml; --groups
+geometry groups (l1, l2, r), spread evenly over the sweep), the order swapped every round: the
+caging summaries alone (`runner.compute_items`) and the summaries with the manipulation data
+(`runner.compute_items_with_manipulation`: Scenario A per cell, Scenario B entries reduced into
+per-part hulls). Kernels are compiled or loaded first. Prints every repeat and the ratio of the
+medians.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .timing import header, print_side_by_side, side_by_side, timed
+
+NAME = "manipulation"
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def add_arguments(ap) -> None:
+    ap.add_argument("--groups", type=int, default=6,
+                    help="geometry groups (l1, l2, r) of the paper sweep, spread evenly [6]")
+    ap.add_argument("--repeats", type=int, default=3, help="rounds [3]")
+    ap.add_argument("--config", type=Path, default=ROOT / "configs" / "paper.yaml",
+                    help="a config with `outputs: {manipulation: true}` [configs/paper.yaml]")
+
+
+def run(args) -> int:
+    from sweep.runs.runner import compute_items, compute_items_with_manipulation
+    from sweep.config.parse import load_scene
+
+    scene = load_scene(args.config)
+    picks = np.linspace(0, scene.n_groups - 1, args.groups).round().astype(int)
+    ranges = [(int(g) * scene.group_size, (int(g) + 1) * scene.group_size) for g in picks]
+    n_maps = sum(b - a for a, b in ranges) * len(scene.values["w"])
+    header(NAME)
+    a, _ = ranges[0]
+    compute_items(scene, a, a + 1)                       # compile or load the kernels
+    compute_items_with_manipulation(scene, a, a + 1)
+    compute = {"caging only": compute_items,
+               "caging + manipulation": compute_items_with_manipulation}
+
+    def measure(name):
+        return timed(lambda: [compute[name](scene, a, b) for a, b in ranges])
+
+    print_side_by_side(f"{len(ranges)} geometry groups of {args.config.name} ({n_maps} maps, "
+                       f"h = {scene.h})", side_by_side(list(compute), measure, args.repeats))
+    return 0
