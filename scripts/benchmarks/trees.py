@@ -24,13 +24,18 @@ from .timing import header, print_side_by_side, side_by_side
 NAME = "trees"
 SCRIPTS = Path(__file__).resolve().parents[1]
 
-# Runs in the tree under test: only names that every tree since 3ec87e7 has.
+# Runs in the tree under test: only names that every tree since 3ec87e7 has, at the module
+# paths of P14's layout (sweep/compute/) or of the flat layout before it.
 CHILD = r"""
 import json, sys, time
 sys.path.insert(0, {scripts!r})
 from benchmarks.workloads import THREE_MAPS, paper_sample, paper_widths
-from sweep.compute.batch import summarize_cells
-from sweep.compute.maps import compute_map
+try:
+    from sweep.compute.batch import summarize_cells
+    from sweep.compute.maps import compute_map
+except ImportError:
+    from sweep.batch import summarize_cells
+    from sweep.maps import compute_map
 from sweep.model import Accuracy, Command, Design, Grid, Limits, Part
 what, n_cells, h = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 sample, widths = paper_sample(n_cells), paper_widths()
