@@ -26,6 +26,9 @@ def add_arguments(ap) -> None:
     ap.add_argument("--repeats", type=int, default=5, help="rounds [5]")
     ap.add_argument("--what", default="sample,1200,map",
                     help="comma-separated workloads: sample, 1200, map [all three]")
+    ap.add_argument("--reconfig-step", type=float, default=0.05,
+                    help="accuracy.reconfig_step of both methods [0.05, configs/paper.yaml's]: "
+                         "a cheaper finger field makes the trajectories' share larger")
 
 
 def run(args) -> int:
@@ -42,11 +45,13 @@ def run(args) -> int:
     workloads = {}
     if "sample" in what:
         sample, widths = paper_sample(args.cells, seed=0, in_table_order=False), paper_widths()
-        workloads[f"sample ({len(sample)} paper cells x 6 widths), h = {h}"] = (
+        workloads[f"sample ({len(sample)} paper cells x 6 widths), h = {h}, "
+                  f"reconfig_step = {args.reconfig_step}"] = (
             lambda acc: summarize_cells(sample, widths, Command(), h, Limits(), acc))
     if "1200" in what:
         c1200, w1200 = issue_1200_flat()
-        workloads[f"1200 (the 1,200 maps of issue P10), h = {h}"] = (
+        workloads[f"1200 (the 1,200 maps of issue P10), h = {h}, "
+                  f"reconfig_step = {args.reconfig_step}"] = (
             lambda acc: summarize_cells(c1200, w1200, Command(), h, Limits(), acc))
     if "map" in what:
         d, p = Design(*CREASE_MAP[0]), Part(*CREASE_MAP[1])
@@ -55,8 +60,9 @@ def run(args) -> int:
     header(NAME)
     for label, work in workloads.items():
         for m in METHODS:  # load (or compile) the kernels of both methods: untimed
-            work(Accuracy(trajectory=m))
+            work(Accuracy(reconfig_step=args.reconfig_step, trajectory=m))
         times = side_by_side(METHODS, lambda m, work=work: timed(
-            lambda: work(Accuracy(trajectory=m))), args.repeats)
+            lambda: work(Accuracy(reconfig_step=args.reconfig_step, trajectory=m))),
+            args.repeats)
         print_side_by_side(label, times)
     return 0
