@@ -47,7 +47,8 @@ def run_config(config: str, chunks: int, work: Path) -> dict:
         chunk_wall.append(wall)
         chunk_peak.append(peak)
         print(f"  {name} chunk {k}/{chunks}: {wall:.1f} s, peak {peak:.0f} MiB", flush=True)
-    merge_wall, merge_peak = measured(["merge", str(rundir), "--out", str(store)])
+    merge_wall, merge_peak = measured(["merge", str(rundir), "--out", str(store),
+                                      "--no-refine"])  # the sweep, not the refinement stage
     print(f"  {name} merge: {merge_wall:.1f} s, peak {merge_peak:.0f} MiB", flush=True)
     with h5py.File(store, "r") as f:
         n_maps = int(f.attrs["n_maps"])

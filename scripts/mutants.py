@@ -41,7 +41,8 @@ MUTANTS_FILE = Path(__file__).with_name("mutants.yaml")
 FAST_TESTS = ("tests/test_kernel_edges.py", "tests/test_hull.py", "tests/test_analytic.py",
               "tests/test_reference.py", "tests/test_invariants.py", "tests/test_forces.py",
               "tests/test_golden.py", "tests/test_closing_bruteforce.py",
-              "tests/test_trajectory_methods.py", "tests/test_tip_contact.py",
+              "tests/test_trajectory_methods.py", "tests/test_sliding.py",
+              "tests/test_tip_contact.py",
               "tests/test_collision.py", "tests/test_springs.py",
               "tests/test_naive_manipulation.py", "tests/test_manipulation.py",
               "tests/test_accepted_space.py")
