@@ -46,8 +46,9 @@ FAST_TESTS = ("tests/test_kernel_edges.py", "tests/test_hull.py", "tests/test_an
               "tests/test_collision.py", "tests/test_springs.py",
               "tests/test_naive_manipulation.py", "tests/test_manipulation.py",
               "tests/test_accepted_space.py")
-#: What a mutant's run needs besides the package (tests read configs and docs).
-COPIED = ("sweep", "tests", "configs", "docs", "pyproject.toml")
+#: What a mutant's run needs besides the package (tests read configs and docs; test_golden
+#: imports scripts/golden.py).
+COPIED = ("sweep", "tests", "configs", "docs", "scripts", "pyproject.toml")
 TIMEOUT_SECONDS = 1800
 
 # Run pytest with the copy's `sweep` importable: drop the editable install's import hook first.
