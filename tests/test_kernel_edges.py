@@ -115,3 +115,29 @@ def test_three_forces_around_the_origin_give_a_positive_value():
     assert total == pytest.approx(1.0, rel=1e-14) and values[0, 0, 0] == total  # inradius 1
     count[0, 0] = 2
     assert pose_radius_sum(count, fx, fy, values, 0) == 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# finger.py: a distal contact with the proximal folded on its stop sticks at g = 0 (MODEL 4.2,
+# 5.3: the finger holds where g(mu) >= 0 for some admissible multiplier)
+# ---------------------------------------------------------------------------------------------
+def test_distal_contact_on_the_proximal_stop_sticks_at_zero_torque_balance():
+    """t1 = pi, t2 = 0 (sin t2 = 0: friction cannot help), r1 = 3/4, r2 = 1/4, l1 = 1, k2 = 1/2:
+    g = r1 k2 - r2 (l1 cos t2 + k2) = 3/8 - 3/8 = 0 exactly in binary. The contact stands (a
+    stuck distal-only state, unchanged); 2^-30 less lever for the tendon (k2 smaller) gives
+    g < 0 and the finger moves off it."""
+    from kernel_calls import finger_model, solver_settings
+    from sweep.kernels.finger import DISTAL_ON_PROXIMAL_STOP, settle
+    from sweep.kernels.records import NO_EFFECTS, FingerState
+
+    l1, l2, r1, r2, r = 1.0, 0.8, 0.75, 0.25, 0.4
+    finger = finger_model(l1, l2, r1, r2, r, 0.4, TH2MIN, TH2MAX)
+    solver = solver_settings(0.01, 1e-12)
+    for k2, sticks in ((0.5, True), (0.5 - 2.0 ** -30, False)):
+        g = r1 * k2 - r2 * (l1 * math.cos(0.0) + k2)
+        assert (g == 0.0) if sticks else (g < 0.0)
+        dx, dy = -l1 - k2, -r                      # the disc tangent to the distal link at k2
+        first = FingerState(DISTAL_ON_PROXIMAL_STOP, math.pi, 0.0, 0.0, k2, False)
+        got = settle(first, dx, dy, finger, solver, NO_EFFECTS)
+        stuck = (got.mode, got.t1, got.t2, got.k1, got.k2) == (DISTAL_ONLY, math.pi, 0.0, 0.0, k2)
+        assert stuck == sticks, (k2, got)
