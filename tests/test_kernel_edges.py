@@ -141,3 +141,23 @@ def test_distal_contact_on_the_proximal_stop_sticks_at_zero_torque_balance():
         got = settle(first, dx, dy, finger, solver, NO_EFFECTS)
         stuck = (got.mode, got.t1, got.t2, got.k1, got.k2) == (DISTAL_ONLY, math.pi, 0.0, 0.0, k2)
         assert stuck == sticks, (k2, got)
+
+
+# ---------------------------------------------------------------------------------------------
+# statics.py: a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("t2, on_stop", [
+    (TH2MIN, True), (TH2MIN + 5e-13, True), (TH2MIN + 1e-9, False),
+    (TH2MAX, True), (TH2MAX - 5e-13, True), (TH2MAX - 1e-9, False)])
+def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined(t2, on_stop):
+    """D9: the forces are determined iff contacts + joints resting on a limit <= 2 (one equation
+    per joint). A two-phalanx finger has 2 contacts: its distal joint within RANGE_TOL = 1e-12 of
+    a stop counts as resting on it (a third unknown, the stop torque), 1e-9 away it does not."""
+    from kernel_calls import finger_model
+    from sweep.kernels.finger import finger_statics
+    from sweep.kernels.records import FingerState
+    from sweep.model import TWO_PHALANX
+
+    finger = finger_model(1.2, 0.8, 0.12, 0.1, 0.4, 0.4, TH2MIN, TH2MAX)
+    st = finger_statics(FingerState(TWO_PHALANX, 1.0, t2, 0.5, 0.7, False), finger)
+    assert st.determined == (not on_stop)
