@@ -161,3 +161,16 @@ def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined
     finger = finger_model(1.2, 0.8, 0.12, 0.1, 0.4, 0.4, TH2MIN, TH2MAX)
     st = finger_statics(FingerState(TWO_PHALANX, 1.0, t2, 0.5, 0.7, False), finger)
     assert st.determined == (not on_stop)
+
+
+# ---------------------------------------------------------------------------------------------
+# part.py: the palm supports a part whose centre is over its end (MODEL 7: y = r, |x| <= w/2)
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("w", [0.8, 1.2, 0.0])
+def test_a_part_over_the_palm_end_touches_the_palm(w):
+    from sweep.kernels.part import touches_palm
+    r = 0.4
+    for sign in (1.0, -1.0):
+        assert touches_palm(sign * 0.5 * w, r, w, r)                 # over the end: inclusive
+        assert not touches_palm(sign * (0.5 * w + 1e-6), r, w, r)    # beyond it
+    assert not touches_palm(0.0, r + 1e-6, w, r)                      # lifted off the palm
