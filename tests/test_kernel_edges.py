@@ -174,3 +174,24 @@ def test_a_part_over_the_palm_end_touches_the_palm(w):
         assert touches_palm(sign * 0.5 * w, r, w, r)                 # over the end: inclusive
         assert not touches_palm(sign * (0.5 * w + 1e-6), r, w, r)    # beyond it
     assert not touches_palm(0.0, r + 1e-6, w, r)                      # lifted off the palm
+
+
+# ---------------------------------------------------------------------------------------------
+# point.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
+# each finger), also in the sliver y in [r - RANGE_TOL, r) that the palm test lets through
+# ---------------------------------------------------------------------------------------------
+def test_a_part_overlapping_either_finger_base_is_infeasible():
+    from sweep.kernels.finger import OVERLAP
+    from sweep.kernels.point import classify_point
+    from sweep.model import INFEASIBLE, REACHED, TWO_PHALANX
+
+    w, r = 0.8, 0.4
+    y = r - 5e-13                 # within RANGE_TOL below the palm row: the palm test passes it
+    # the part over the right finger's base, x = w/2: finger frames d = (x - w/2, y) = (0, y),
+    # |d| < r (1 - TOUCH_REL / 2), and d = (-x - w/2, y) = (-w, y) for the left (MODEL 2)
+    right = solve(0.0, y, 1.2, 0.8, 0.12, 0.1, r, 0.4, TH2MIN, TH2MAX, 0.01, 1e-12)
+    left = solve(-w, y, 1.2, 0.8, 0.12, 0.1, r, 0.4, TH2MIN, TH2MAX, 0.01, 1e-12)
+    assert right[0] == OVERLAP and left[0] != OVERLAP
+    assert classify_point(y, r, left[0], right[0]) == INFEASIBLE
+    assert classify_point(y, r, right[0], left[0]) == INFEASIBLE        # the mirror point
+    assert classify_point(r, r, TWO_PHALANX, TWO_PHALANX) == REACHED
