@@ -136,7 +136,7 @@ def run_tests(copy: Path, tests, timeout: int) -> tuple[str, str, float]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", nargs="*", default=None, help="mutant names to run")
+    ap.add_argument("--only", nargs="*", default=None, help="mutant names to run, in this order")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--tests", nargs="*", default=None, help="test files (default FAST_TESTS)")
     ap.add_argument("--timeout", type=int, default=TIMEOUT_SECONDS)
@@ -150,7 +150,8 @@ def main(argv=None) -> int:
         unknown = set(args.only) - {m.name for m in mutants}
         if unknown:
             raise SystemExit(f"unknown mutants: {sorted(unknown)}")
-        mutants = [m for m in mutants if m.name in args.only]
+        by_name = {m.name: m for m in mutants}
+        mutants = [by_name[n] for n in dict.fromkeys(args.only)]  # in the order given
     stale = [(m, why) for m in mutants if (why := check_applicable(m))]
     for m, why in stale:
         print(f"STALE {m.name}: {why}", file=sys.stderr)
