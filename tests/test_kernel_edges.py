@@ -195,3 +195,25 @@ def test_a_part_overlapping_either_finger_base_is_infeasible():
     assert classify_point(y, r, left[0], right[0]) == INFEASIBLE
     assert classify_point(y, r, right[0], left[0]) == INFEASIBLE        # the mirror point
     assert classify_point(r, r, TWO_PHALANX, TWO_PHALANX) == REACHED
+
+
+# ---------------------------------------------------------------------------------------------
+# streamline.py: the node gradient of a linear energy is exact with any of its differences
+# (central inside, one-sided at the grid's edge or beside an infeasible point)
+# ---------------------------------------------------------------------------------------------
+def test_node_gradient_of_a_linear_energy_is_exact_at_every_node():
+    """E = 3 i - 2 j (per grid step, in binary exact numbers): every feasible node's gradient is
+    (3, -2), whether its neighbours give central or one-sided differences, so a streamline's
+    direction does not turn where the kind of difference changes (MODEL 8 continuous)."""
+    from sweep.kernels.streamline import node_gradient
+    from sweep.model import INFEASIBLE, REACHED
+
+    ny, nx = 5, 6
+    jj, ii = np.mgrid[0:ny, 0:nx]
+    energy = 3.0 * ii - 2.0 * jj
+    point_class = np.full((ny, nx), REACHED, dtype=np.int8)
+    point_class[2, 3] = INFEASIBLE            # its neighbours take one-sided differences
+    for j in range(ny):
+        for i in range(nx):
+            if point_class[j, i] != INFEASIBLE:
+                assert node_gradient(energy, point_class, i, j) == (3.0, -2.0), (j, i)
