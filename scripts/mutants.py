@@ -41,12 +41,14 @@ MUTANTS_FILE = Path(__file__).with_name("mutants.yaml")
 FAST_TESTS = ("tests/test_kernel_edges.py", "tests/test_hull.py", "tests/test_analytic.py",
               "tests/test_reference.py", "tests/test_invariants.py", "tests/test_forces.py",
               "tests/test_golden.py", "tests/test_closing_bruteforce.py",
-              "tests/test_trajectory_methods.py", "tests/test_tip_contact.py",
+              "tests/test_trajectory_methods.py", "tests/test_sliding.py",
+              "tests/test_tip_contact.py",
               "tests/test_collision.py", "tests/test_springs.py",
               "tests/test_naive_manipulation.py", "tests/test_manipulation.py",
               "tests/test_accepted_space.py")
-#: What a mutant's run needs besides the package (tests read configs and docs).
-COPIED = ("sweep", "tests", "configs", "docs", "pyproject.toml")
+#: What a mutant's run needs besides the package (tests read configs and docs; test_golden
+#: imports scripts/golden.py).
+COPIED = ("sweep", "tests", "configs", "docs", "scripts", "pyproject.toml")
 TIMEOUT_SECONDS = 1800
 
 # Run pytest with the copy's `sweep` importable: drop the editable install's import hook first.
@@ -134,7 +136,7 @@ def run_tests(copy: Path, tests, timeout: int) -> tuple[str, str, float]:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", nargs="*", default=None, help="mutant names to run")
+    ap.add_argument("--only", nargs="*", default=None, help="mutant names to run, in this order")
     ap.add_argument("--list", action="store_true", help="list the mutants and exit")
     ap.add_argument("--tests", nargs="*", default=None, help="test files (default FAST_TESTS)")
     ap.add_argument("--timeout", type=int, default=TIMEOUT_SECONDS)
@@ -148,7 +150,8 @@ def main(argv=None) -> int:
         unknown = set(args.only) - {m.name for m in mutants}
         if unknown:
             raise SystemExit(f"unknown mutants: {sorted(unknown)}")
-        mutants = [m for m in mutants if m.name in args.only]
+        by_name = {m.name: m for m in mutants}
+        mutants = [by_name[n] for n in dict.fromkeys(args.only)]  # in the order given
     stale = [(m, why) for m in mutants if (why := check_applicable(m))]
     for m, why in stale:
         print(f"STALE {m.name}: {why}", file=sys.stderr)

@@ -35,6 +35,7 @@ from sweep.model import (
     INFEASIBLE,
     PROXIMAL_ONLY,
     RANGE_TOL,
+    REACHED,
     RECONFIG_STEP_RANGE,
     ROOT_TOL_RANGE,
     TWO_PHALANX,
@@ -89,7 +90,7 @@ def accepted_case(draw):
     f_right = draw(st.sampled_from([1.0]) | log_uniform(1e-9, 1e9))
     step = draw(st.sampled_from([0.01]) | log_uniform(STEP_FLOOR, RECONFIG_STEP_RANGE[1]))
     tol = draw(st.sampled_from([1e-12]) | log_uniform(*ROOT_TOL_RANGE))
-    trajectory = draw(st.sampled_from(["discrete", "continuous"]))
+    trajectory = draw(st.sampled_from(["sliding", "discrete", "continuous"]))
     on = draw(st.fixed_dictionaries({k: st.booleans() for k in
                                      ("tip_contact", "joint_springs", "finger_collision")}))
     friction = mu > 0 or draw(st.booleans())
@@ -174,6 +175,12 @@ def check_map(case, m):
     cls = f["point_class"]
     feasible = cls != INFEASIBLE
     X, Y = np.meshgrid(m.x, m.y)
+    # every trajectory from P_j ends in one of the four end states, with a finite score
+    a = m.attrs
+    assert (a["n_caged"] + a["n_tip_prehension"] + a["n_ejection"] + a["n_stalled"]
+            == a["n_reached"] == int((cls == REACHED).sum()))
+    assert math.isfinite(a["Lambda"]) and 0.0 <= a["Lambda"] <= a["n_caged"]
+    assert math.isfinite(a["caging_area"]) and a["caging_area"] >= 0.0
     assert np.isfinite(f["energy"][feasible]).all()
     assert np.isnan(f["energy"][~feasible]).all()
     for name in ("theta1", "theta2", "k1", "k2"):

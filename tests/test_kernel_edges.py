@@ -115,3 +115,105 @@ def test_three_forces_around_the_origin_give_a_positive_value():
     assert total == pytest.approx(1.0, rel=1e-14) and values[0, 0, 0] == total  # inradius 1
     count[0, 0] = 2
     assert pose_radius_sum(count, fx, fy, values, 0) == 0.0
+
+
+# ---------------------------------------------------------------------------------------------
+# finger.py: a distal contact with the proximal folded on its stop sticks at g = 0 (MODEL 4.2,
+# 5.3: the finger holds where g(mu) >= 0 for some admissible multiplier)
+# ---------------------------------------------------------------------------------------------
+def test_distal_contact_on_the_proximal_stop_sticks_at_zero_torque_balance():
+    """t1 = pi, t2 = 0 (sin t2 = 0: friction cannot help), r1 = 3/4, r2 = 1/4, l1 = 1, k2 = 1/2:
+    g = r1 k2 - r2 (l1 cos t2 + k2) = 3/8 - 3/8 = 0 exactly in binary. The contact stands (a
+    stuck distal-only state, unchanged); 2^-30 less lever for the tendon (k2 smaller) gives
+    g < 0 and the finger moves off it."""
+    from kernel_calls import finger_model, solver_settings
+    from sweep.kernels.finger import DISTAL_ON_PROXIMAL_STOP, settle
+    from sweep.kernels.records import NO_EFFECTS, FingerState
+
+    l1, l2, r1, r2, r = 1.0, 0.8, 0.75, 0.25, 0.4
+    finger = finger_model(l1, l2, r1, r2, r, 0.4, TH2MIN, TH2MAX)
+    solver = solver_settings(0.01, 1e-12)
+    for k2, sticks in ((0.5, True), (0.5 - 2.0 ** -30, False)):
+        g = r1 * k2 - r2 * (l1 * math.cos(0.0) + k2)
+        assert (g == 0.0) if sticks else (g < 0.0)
+        dx, dy = -l1 - k2, -r                      # the disc tangent to the distal link at k2
+        first = FingerState(DISTAL_ON_PROXIMAL_STOP, math.pi, 0.0, 0.0, k2, False)
+        got = settle(first, dx, dy, finger, solver, NO_EFFECTS)
+        stuck = (got.mode, got.t1, got.t2, got.k1, got.k2) == (DISTAL_ONLY, math.pi, 0.0, 0.0, k2)
+        assert stuck == sticks, (k2, got)
+
+
+# ---------------------------------------------------------------------------------------------
+# statics.py: a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("t2, on_stop", [
+    (TH2MIN, True), (TH2MIN + 5e-13, True), (TH2MIN + 1e-9, False),
+    (TH2MAX, True), (TH2MAX - 5e-13, True), (TH2MAX - 1e-9, False)])
+def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined(t2, on_stop):
+    """D9: the forces are determined iff contacts + joints resting on a limit <= 2 (one equation
+    per joint). A two-phalanx finger has 2 contacts: its distal joint within RANGE_TOL = 1e-12 of
+    a stop counts as resting on it (a third unknown, the stop torque), 1e-9 away it does not."""
+    from kernel_calls import finger_model
+    from sweep.kernels.finger import finger_statics
+    from sweep.kernels.records import FingerState
+    from sweep.model import TWO_PHALANX
+
+    finger = finger_model(1.2, 0.8, 0.12, 0.1, 0.4, 0.4, TH2MIN, TH2MAX)
+    st = finger_statics(FingerState(TWO_PHALANX, 1.0, t2, 0.5, 0.7, False), finger)
+    assert st.determined == (not on_stop)
+
+
+# ---------------------------------------------------------------------------------------------
+# part.py: the palm supports a part whose centre is over its end (MODEL 7: y = r, |x| <= w/2)
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("w", [0.8, 1.2, 0.0])
+def test_a_part_over_the_palm_end_touches_the_palm(w):
+    from sweep.kernels.part import touches_palm
+    r = 0.4
+    for sign in (1.0, -1.0):
+        assert touches_palm(sign * 0.5 * w, r, w, r)                 # over the end: inclusive
+        assert not touches_palm(sign * (0.5 * w + 1e-6), r, w, r)    # beyond it
+    assert not touches_palm(0.0, r + 1e-6, w, r)                      # lifted off the palm
+
+
+# ---------------------------------------------------------------------------------------------
+# point.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
+# each finger), also in the sliver y in [r - RANGE_TOL, r) that the palm test lets through
+# ---------------------------------------------------------------------------------------------
+def test_a_part_overlapping_either_finger_base_is_infeasible():
+    from sweep.kernels.finger import OVERLAP
+    from sweep.kernels.point import classify_point
+    from sweep.model import INFEASIBLE, REACHED, TWO_PHALANX
+
+    w, r = 0.8, 0.4
+    y = r - 5e-13                 # within RANGE_TOL below the palm row: the palm test passes it
+    # the part over the right finger's base, x = w/2: finger frames d = (x - w/2, y) = (0, y),
+    # |d| < r (1 - TOUCH_REL / 2), and d = (-x - w/2, y) = (-w, y) for the left (MODEL 2)
+    right = solve(0.0, y, 1.2, 0.8, 0.12, 0.1, r, 0.4, TH2MIN, TH2MAX, 0.01, 1e-12)
+    left = solve(-w, y, 1.2, 0.8, 0.12, 0.1, r, 0.4, TH2MIN, TH2MAX, 0.01, 1e-12)
+    assert right[0] == OVERLAP and left[0] != OVERLAP
+    assert classify_point(y, r, left[0], right[0]) == INFEASIBLE
+    assert classify_point(y, r, right[0], left[0]) == INFEASIBLE        # the mirror point
+    assert classify_point(r, r, TWO_PHALANX, TWO_PHALANX) == REACHED
+
+
+# ---------------------------------------------------------------------------------------------
+# streamline.py: the node gradient of a linear energy is exact with any of its differences
+# (central inside, one-sided at the grid's edge or beside an infeasible point)
+# ---------------------------------------------------------------------------------------------
+def test_node_gradient_of_a_linear_energy_is_exact_at_every_node():
+    """E = 3 i - 2 j (per grid step, in binary exact numbers): every feasible node's gradient is
+    (3, -2), whether its neighbours give central or one-sided differences, so a streamline's
+    direction does not turn where the kind of difference changes (MODEL 8 continuous)."""
+    from sweep.kernels.streamline import node_gradient
+    from sweep.model import INFEASIBLE, REACHED
+
+    ny, nx = 5, 6
+    jj, ii = np.mgrid[0:ny, 0:nx]
+    energy = 3.0 * ii - 2.0 * jj
+    point_class = np.full((ny, nx), REACHED, dtype=np.int8)
+    point_class[2, 3] = INFEASIBLE            # its neighbours take one-sided differences
+    for j in range(ny):
+        for i in range(nx):
+            if point_class[j, i] != INFEASIBLE:
+                assert node_gradient(energy, point_class, i, j) == (3.0, -2.0), (j, i)
