@@ -395,9 +395,15 @@ def _exists(path: str) -> bool:
     U+FFFD: any character matches there.)"""
     if "\ufffd" not in path:
         return Path(path).exists()
-    parent = Path(path).parent
-    pattern = re.compile(".+".join(re.escape(p) for p in re.split("\ufffd+", Path(path).name)))
-    return parent.is_dir() and any(pattern.fullmatch(q.name) for q in parent.iterdir())
+    candidates = [Path(path).anchor or "."]   # matched one component at a time (a folder's name
+    for part in Path(path).parts[1 if Path(path).anchor else 0:]:   # may hold them too)
+        if "\ufffd" not in part:
+            candidates = [Path(c) / part for c in candidates if (Path(c) / part).exists()]
+            continue
+        pattern = re.compile(".+".join(re.escape(p) for p in re.split("\ufffd+", part)))
+        candidates = [Path(c) / q.name for c in candidates if Path(c).is_dir()
+                      for q in Path(c).iterdir() if pattern.fullmatch(q.name)]
+    return bool(candidates)
 
 
 def names_input(line: str, names) -> bool:

@@ -675,3 +675,20 @@ def test_a_refusal_in_a_real_process_is_one_line_on_stderr_and_exit_2(tmp_path):
 
 def _clean_env() -> dict:
     return {k: v for k, v in os.environ.items() if k not in fz.CLEAN_ENV}
+
+
+def test_an_interrupt_that_python_wraps_is_still_one_line_and_exit_130(capsys):
+    """Python turns a KeyboardInterrupt raised in a dataclass field's __set_name__ (a module
+    imported by a command, at Ctrl-C) into a RuntimeError caused by it: found by the Ctrl-C
+    spray as a traceback."""
+    from sweep.cli.common import user_errors
+
+    with pytest.raises(SystemExit) as exc:
+        with user_errors():
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as interrupt:
+                raise RuntimeError("Error calling __set_name__") from interrupt
+    assert exc.value.code == 130
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("sweep: interrupted")

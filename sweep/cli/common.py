@@ -103,7 +103,24 @@ def user_errors():
         except Exception as exc:
             if isinstance(exc, _user_error_types()):
                 raise UserError(str(exc)) from None
+            interrupt = _interrupt_cause(exc)
+            if interrupt is not None:
+                click.echo(interrupted_message(interrupt), err=True)
+                sys.exit(EXIT_INTERRUPTED)
             raise
+
+
+def _interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
+    """The Ctrl-C / SIGTERM behind an exception, if any: Python wraps an exception raised in
+    some hooks (a dataclass field's `__set_name__` while a module is imported) in a
+    RuntimeError whose cause is the KeyboardInterrupt."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def real_path(path) -> Path:
