@@ -270,7 +270,9 @@ def _find_task_process(job_id: str, k: int, waiting) -> int:
                 continue
             try:
                 argv = (entry / "cmdline").read_bytes().split(b"\0")
-                if b"run" not in argv or not any(a.endswith(b"sweep") for a in argv):
+                # the `sweep` launcher (bin/sweep) execs `python -S -c '...sweep.program...'`
+                if b"run" not in argv or not any(a.endswith(b"sweep") or b"sweep.program" in a
+                                                 for a in argv):
                     continue
                 if not want <= set((entry / "environ").read_bytes().split(b"\0")):
                     continue
