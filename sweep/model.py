@@ -194,6 +194,12 @@ class ModelInputError(ValueError):
     """Bad user input, caught once at the edge (CLI exit code 2)."""
 
 
+#: Lengths the model accepts (model units), and how far apart in scale the finger's and the
+#: part's lengths (l1, l2, r, w > 0), and the two pulley radii, may be.
+LENGTH_RANGE = (1e-100, 1e100)
+LENGTH_SPAN = 1e12
+
+
 def validate_inputs(design: Design, part: Part, command: Command, limits: Limits,
                     accuracy: Accuracy, effects: Effects | None = None) -> None:
     """Raise ModelInputError with a one-line message naming the bad value."""
@@ -207,6 +213,21 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
     if not (math.isfinite(design.w) and design.w >= 0):
         raise ModelInputError(f"w must be >= 0, got {design.w!r}")
     positive("r", part.r)
+    # Lengths far apart in scale (a denormal l2 against l1 = 1: 5e-324, found by the fuzz
+    # campaign) overflow or vanish in the kernels' products: one scale within LENGTH_SPAN.
+    lengths = {"l1": design.l1, "l2": design.l2, "r": part.r, "r1": design.r1,
+               "r2": design.r2, **({"w": design.w} if design.w > 0 else {})}
+    for name, value in lengths.items():
+        if not LENGTH_RANGE[0] <= value <= LENGTH_RANGE[1]:
+            raise ModelInputError(f"{name} must be in [{LENGTH_RANGE[0]:g}, "
+                                  f"{LENGTH_RANGE[1]:g}] (model units), got {value!r}")
+    for group in (("l1", "l2", "r", "w"), ("r1", "r2")):
+        vals = {k: lengths[k] for k in group if k in lengths}
+        small, large = min(vals, key=vals.get), max(vals, key=vals.get)
+        if vals[large] > LENGTH_SPAN * vals[small]:
+            raise ModelInputError(f"{small} = {vals[small]!r} and {large} = {vals[large]!r} "
+                                  f"differ by more than a factor {LENGTH_SPAN:g}: give "
+                                  f"lengths of one scale")
     if not (math.isfinite(part.mu) and part.mu >= 0):
         raise ModelInputError(f"mu must be >= 0, got {part.mu!r}")
     for name in ("f_left", "f_right"):

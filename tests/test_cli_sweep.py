@@ -439,7 +439,7 @@ def test_top_refuses_a_command_index_the_store_does_not_have(cli, reference):
     (dict(accuracy={"reconfig_step": 1e-9}), "accuracy.reconfig_step"),
     (dict(accuracy={"root_tol": 0.0}), "accuracy.root_tol"),
     (dict(grid={"h": 1e-320}), "grid.h"),
-    (dict(designs={"l1": [1e308]}), "grid"),
+    (dict(designs={"l1": [1e308]}), "l1"),   # beyond the lengths the model accepts
 ])
 def test_extreme_configs_fail_at_the_edge(cli, tmp_path, changes, key):
     cfg = write_config(tmp_path / "bad.yaml", tiny(**changes))

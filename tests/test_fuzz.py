@@ -692,3 +692,19 @@ def test_an_interrupt_that_python_wraps_is_still_one_line_and_exit_130(capsys):
     assert exc.value.code == 130
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("sweep: interrupted")
+
+
+@pytest.mark.parametrize("l2, r2, ok", [(5e-324, 0.25, False), (1e-13, 0.25, False),
+                                        (1e-11, 0.25, True), (0.5, 1e-120, False)])
+def test_lengths_of_one_scale_are_accepted_and_others_refused(l2, r2, ok):
+    """The long fuzz profile's `sweep map --l1 1 --l2 5e-324` reached a kernel (SystemError):
+    lengths must lie in LENGTH_RANGE and within LENGTH_SPAN of each other."""
+    from sweep.model import (Accuracy, Command, Design, Limits, ModelInputError, Part,
+                             validate_inputs)
+
+    args = (Design(1.0, l2, 0.25, r2, 0.0), Part(0.125, 0.0), Command(), Limits(), Accuracy())
+    if ok:
+        validate_inputs(*args)
+    else:
+        with pytest.raises(ModelInputError):
+            validate_inputs(*args)
