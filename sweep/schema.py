@@ -222,7 +222,8 @@ REFINE_FIELDS = (
           "refine"),
     Field("refine_margin", "float64", PART_DIMS,
           "lead of the best design's refined caging area over the runner-up's at the finest "
-          "level; NaN if not refined", "length^2 (model units)", "refine"),
+          "level where both were computed; NaN if not refined", "length^2 (model units)",
+          "refine"),
     Field("refine_bound_held", "bool", PART_DIMS,
           "the contender bound held: the best's refined caging area minus its error exceeds "
           "every non-contender's screened caging area plus the largest change of a contender "

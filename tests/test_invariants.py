@@ -138,6 +138,19 @@ def test_shared_field_fast_path_equals_direct_maps(h):
             assert np.array_equal(fast[c, k], direct), (c, w)
 
 
+@pytest.mark.parametrize("widths", [np.array([0.0, 0.4, 0.8, 1.2]), np.array([0.3, 0.5])])
+def test_only_the_wanted_maps_are_computed(widths):
+    """`want` (the refinement's few widths per cell): the wanted maps equal a whole sweep's bit
+    for bit, on the shared-field path and on the direct one; the others stay zero."""
+    cells = np.array([[2.0, 1.6, 0.2, 0.14, 0.4, 0.4], [1.0, 0.8, 0.12, 0.12, 0.8, 0.1]])
+    whole = summarize_cells(cells, widths, Command(), 0.1, Limits(), Accuracy())
+    want = np.zeros((2, widths.size), dtype=bool)
+    want[0, 1] = want[1, 0] = want[1, -1] = True
+    some = summarize_cells(cells, widths, Command(), 0.1, Limits(), Accuracy(), want=want)
+    assert np.array_equal(some[want], whole[want])
+    assert not some[~want].any() and whole[~want].any()
+
+
 def test_off_grid_palm_width_uses_the_direct_path():
     widths = np.array([0.3])  # w/2 = 0.15 is not a whole number of 0.1 steps
     cells = np.array([[1.0, 0.8, 0.12, 0.1, 0.8, 0.4]])

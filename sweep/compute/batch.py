@@ -25,11 +25,12 @@ def _cell_design_part(cell, w: float) -> tuple[Design, Part]:
 
 
 def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: float,
-                    limits: Limits, accuracy: Accuracy,
-                    effects: Effects = Effects()) -> np.ndarray:
+                    limits: Limits, accuracy: Accuracy, effects: Effects = Effects(),
+                    want: np.ndarray | None = None) -> np.ndarray:
     """Summaries of the maps of every cell at every width: float64 array (n_cells, n_w, n_fields).
 
-    `cells` is float64 (n_cells, 6) with columns CELL_COLUMNS; `widths` float64 (n_w,).
+    `cells` is float64 (n_cells, 6) with columns CELL_COLUMNS; `widths` float64 (n_w,); `want`
+    bool (n_cells, n_w): the maps to compute (default all; the others' rows stay zero).
     Each map uses the default whole-reach grid of MODEL 8 at spacing `h`. Results are bitwise
     identical to `compute_map(...).attrs` for the same map.
     """
@@ -41,6 +42,8 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     out = np.zeros((cells.shape[0], widths.size, len(SUMMARY_FIELDS)))
     if cells.shape[0] == 0 or widths.size == 0:
         return out
+    want = (np.ones((cells.shape[0], widths.size), dtype=np.bool_) if want is None else
+            np.ascontiguousarray(want, dtype=np.bool_).reshape(cells.shape[0], widths.size))
     steps = [palm_half_width_steps(w, h) for w in widths]
     _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
                                        effects)
@@ -53,10 +56,12 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
         summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
                                command.f_left, command.f_right, th2min, th2max, solver, blocks,
-                               out, None, numba.get_num_threads())
+                               out, want, None, numba.get_num_threads())
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
+            if not want[c, k]:
+                continue
             design, part = _cell_design_part(cells[c], w)
             finger, _, _ = kernel_records(design, part, limits, accuracy, effects)
             g = map_grid(design, part, Grid(h=h))
@@ -144,7 +149,8 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
         summarize_cells_shared(np.ascontiguousarray(cells[rows]), widths,
                                np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
                                command.f_left, command.f_right, limits.theta2_min,
-                               limits.theta2_max, solver, blocks, out, manip,
+                               limits.theta2_max, solver, blocks, out,
+                               np.ones((rows.size, widths.size), dtype=np.bool_), manip,
                                numba.get_num_threads())
         return out, manip
 

@@ -93,9 +93,12 @@ def gather_row(src, dst, side, m_lo, step, ncol):
 
 
 @njit(cache=True)
-def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, manip,
-                   c, memo, memo_key, memo_next):
-    """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY).
+def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, want,
+                   manip, c, memo, memo_key, memo_next):
+    """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY); `want`
+    (n_w,): the widths whose maps are computed (out[k] of another stays as it was: the
+    refinement asks for a few widths of a cell, and a width's map costs far more than its share
+    of the field).
 
     steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
     i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
@@ -126,6 +129,8 @@ def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_r
             memo_key[0] = finger.l1
             memo_key[1] = finger.l2
     for k in range(ws.shape[0]):
+        if not want[k]:
+            continue
         xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
         outs = new_outcome_arrays(ny, xs.shape[0])
         stack = np.empty(ny * xs.shape[0], dtype=np.int64)
@@ -265,10 +270,11 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @njit(cache=True)
 def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, effects, out, manip, n_threads):
+                           theta2_max, solver, effects, out, want, manip, n_threads):
     """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
-    manip: a ManipulationOut with one row per cell, or None; n_threads: Numba's thread count
-    (numba.get_num_threads(), which a cached kernel cannot call)."""
+    want: bool (n, n_w), the maps to compute; manip: a ManipulationOut with one row per cell,
+    or None; n_threads: Numba's thread count (numba.get_num_threads(), which a cached kernel
+    cannot call)."""
     tip, springs, collision = effects  # prange captures blocks only as arguments
     memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
     if collision is not None and cells.shape[0] > 0:
@@ -276,21 +282,21 @@ def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, the
     memo = np.empty(memo_shape)
     memo_key = np.full((memo_shape[0], 2), np.nan)
     summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, manip, memo,
-                              memo_key)
+                              theta2_max, solver, tip, springs, collision, out, want, manip,
+                              memo, memo_key)
 
 
 @njit(cache=True, parallel=True)
 def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, manip, memo,
-                              memo_key):
+                              theta2_max, solver, tip, springs, collision, out, want, manip,
+                              memo, memo_key):
     for c in prange(cells.shape[0]):
         t = numba.get_thread_id() if memo.shape[0] > 0 else 0
         memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
                      and cells[c + 1, 1] == cells[c, 1])
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
                        EffectBlocks(tip, springs, collision), ws, steps, ncols[c],
-                       nys[c], h, f_left, f_right, out[c], manip, c,
+                       nys[c], h, f_left, f_right, out[c], want[c], manip, c,
                        memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
                        memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),
                        memo_next)

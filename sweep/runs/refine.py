@@ -24,6 +24,10 @@ can be the best, so only they are recomputed on finer grids. Per part (r, mu) an
    The part is *certified* when b alone is left: its lead over every other contender exceeds the
    change between the last two levels of both. At the level cap the classes left are the part's
    *near-tie set*, each with its value and error estimate.
+   *Leader first* (levels 2 and up): the best of level k-1 is computed at level k before the
+   others, and a class whose level-(k-1) value plus error is already below the leader's new
+   value minus its new error is eliminated without being computed at level k (the test above,
+   with the class's last interval; model-notes D28).
 4. *Bound check.* The contender bound is an assumption about how far the screening can be off;
    each part checks it against its own run: it *held* when the best's value minus its error
    exceeds every non-contender's screened value plus the largest rise (or least fall) of any
@@ -187,8 +191,8 @@ def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.
     for c in range(cells.shape[0]):
         groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
     # A call with fewer cells than threads leaves threads idle: the small groups of a command
-    # run as one call at the union of their widths (an extra width costs a map's outcomes,
-    # far less than its finger field).
+    # run as one call at the union of their widths, each cell computing only the maps of its own
+    # widths (`want`; the shared field spans the union, a small part of the work).
     threads = numba.get_num_threads()
     merged: dict = {}
     for (ci, ws), rows in list(groups.items()):
@@ -205,15 +209,17 @@ def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.
         # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
         # of `threads` cells of similar cost, largest first, keep every thread busy.
         cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
-                                r_vals[int(cells[c, 5])], h) for wi in ws) for c in rows]
+                                r_vals[int(cells[c, 5])], h) for wi in widths_of[c])
+                for c in rows]
         rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
         calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
     for ci, ws, rows in calls:
         c = cells[rows]
+        want = np.array([[wi in widths_of[r] for wi in ws] for r in rows], dtype=np.bool_)
         res = batch.summarize_cells(
             np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
             scene.widths[list(ws)], scene.commands[ci], h, scene.limits, scene.accuracy,
-            scene.effects)
+            scene.effects, want)
         at = np.full(cells.shape[0], -1)
         at[rows] = np.arange(len(rows))
         mine = np.flatnonzero(at[which] >= 0)
@@ -408,16 +414,17 @@ def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
     got.update(got_b)
     contenders = [c.copy() for c in alive]
     active = [p for p in range(n_parts) if alive[p].size]
+    leader = {}                            # per part: the best of the last level
     for k in range(1, settings.levels + 1):
         if not active:
             break
-        keys = _keys(alive, active)
         if k > 1:
-            got, seconds, computed = _run_level(scene, designs, parts, keys,
-                                                settings.level_h(scene.h, k), str(k), work,
-                                                progress)
+            alive, got, seconds, computed = _leader_first(
+                scene, designs, parts, alive, active, leader, latest, error,
+                settings.level_h(scene.h, k), str(k), work, progress)
         else:
             seconds, computed = seconds + seconds_b, computed + computed_b
+        keys = _keys(alive, active)
         out.level_maps.append(int(keys.shape[0]))
         out.level_seconds.append(seconds)
         out.computed_maps += computed
@@ -433,7 +440,9 @@ def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
                 level[members, p] = k
                 error[members, p] = err[j]
             finest[p] = k
-            margin[p] = lead(now, b)
+            if c.size > 1:    # else the leader was computed alone: its lead stays the last one
+                margin[p] = lead(now, b)
+            leader[p] = int(c[b])
             alive[p] = c[keep]
             if alive[p].size == 1:
                 status[p] = STATUS["certified"]
@@ -452,6 +461,29 @@ def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
     return out
 
 
+def _leader_first(scene, designs, parts, alive, active, leader, latest, error, h, label, work,
+                  progress):
+    """Level `label` (2, 3, ...) of the parts `active`, leader first (module docstring, step 3):
+    each part's leader (the best of the last level) at spacing h, then the classes of `alive`
+    whose last value plus error reaches the leader's new value minus its new error. Returns
+    (the classes computed per part, {(part, representative): value}, seconds, maps computed)."""
+    lead_keys = np.array([(p, leader[p]) for p in active], dtype=np.int64).reshape(-1, 2)
+    got, seconds, computed = _run_level(scene, designs, parts, lead_keys, h, label + "a", work,
+                                        progress)
+    now_alive = list(alive)
+    for p in active:
+        d = leader[p]
+        low = got[(p, d)] - abs(got[(p, d)] - latest[d, p])
+        c = alive[p]
+        now_alive[p] = c[(c == d) | (latest[c, p] + error[c, p] >= low)]
+    rest = [np.setdiff1d(now_alive[p], [leader[p]]) if p in active else alive[p][:0]
+            for p in range(len(alive))]
+    got_b, seconds_b, computed_b = _run_level(scene, designs, parts, _keys(rest, active), h,
+                                              label + "b", work, progress)
+    got.update(got_b)
+    return now_alive, got, seconds + seconds_b, computed + computed_b
+
+
 def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
                latest: np.ndarray, best_low: float) -> bool:
     """The bound check of one part: `best_low` (the best's value minus its error) exceeds every
@@ -465,7 +497,7 @@ def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
 
 
 def _run_level(scene, designs, parts, keys, h, label, work, progress):
-    """The maps `keys` of a level (`label`: "1a", "1b", "2", ...): finished batches loaded, the
+    """The maps `keys` of a level (`label`: "1a", "1b", "2a", "2b", ...): finished batches loaded, the
     rest computed and saved. Returns ({(part, design): caging area}, compute seconds of every
     batch, maps computed now)."""
     if not keys.shape[0]:
