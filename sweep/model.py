@@ -300,7 +300,7 @@ def validate_scene(effects: Effects, outputs: Outputs) -> None:
 class EffectSpec:
     """One effect, declared once: what the model, the config, `sweep map`, the schema and the
     files know of it. Its switch is the `Effects` field `name`; its kernel block, if any, is
-    built in `sweep.compute.maps.kernel_records` (kernels/records.py `EffectBlocks`)."""
+    built in `sweep.compute.layout.kernel_records` (kernels/records.py `EffectBlocks`)."""
 
     name: str               # YAML key under `effects:`, name in `--effects`, `Effects` field
     #: its parameters, (YAML key and file attribute key, `Effects` field): given in the config

@@ -79,7 +79,8 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from ..compute.maps import compute_map, map_grid
+    from ..compute.layout import map_grid
+    from ..compute.maps import compute_map
     from ..grid import map_bytes_per_point
     from ..model import (
         Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,

@@ -16,7 +16,7 @@ from ..kernels.records import Hand, ManipulationOut
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS
 from .manipulation import ManipulationChunk, PartReduction
-from .maps import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
 
 
 def _cell_design_part(cell, w: float) -> tuple[Design, Part]:

@@ -296,7 +296,7 @@ class Scene:
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     """Points of the default whole-reach grid of one map (MODEL 8; as
-    `sweep.compute.maps.map_grid`)."""
+    `sweep.compute.layout.map_grid`)."""
     try:
         i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
     except ModelInputError:
