@@ -192,6 +192,8 @@ COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
 REFINE_ROLE_MEANINGS = ("screened", "eliminated", "near_tie", "best")
 #: Outcome of a part's refinement (`refine_status`).
 REFINE_STATUS_MEANINGS = ("not_refined", "certified", "near_tie")
+#: The design parameters: config keys, store dimensions and coordinates (l1 l2 r1 r2 w).
+DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_DIMS = ("part",)   # stands for (r, mu) or (r, mu, command)
 
 REFINE_FIELDS = (

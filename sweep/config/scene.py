@@ -33,9 +33,8 @@ from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, cell_bytes, cell_e
                    grid_index_bounds, part_lattice_columns)
 from ..model import (EFFECT_NAMES, OUTPUT_NAMES, Accuracy, Design, Effects, Grid, Limits,
                      ModelInputError, Outputs, Part, effect_attributes)
-from ..schema import SUMMARY_FIELDS
+from ..schema import DESIGN_KEYS, SUMMARY_FIELDS  # noqa: F401 (DESIGN_KEYS: config keys)
 
-DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
 #: Dimensions of the results store, in storage order (a `command` dimension is appended when a
 #: scene has more than one command).
