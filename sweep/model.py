@@ -307,6 +307,7 @@ class EffectSpec:
     #: as a mapping `NAME: {KEY: value, ...}` (each >= 0), written to every file as that mapping
     params: tuple = ()
     params_text: str = ""   # what the parameters are, for the config's "give the ..." message
+    params_help: tuple = ()  # each parameter's `sweep map` flag help (the flag is --KEY)
     #: map outputs it cannot be combined with: (output, why) -> `validate_scene`'s message
     no_outputs: tuple = ()
     #: why the config refuses it with forces or the manipulation metric ("" if it does not)
@@ -336,6 +337,7 @@ EFFECTS = (
                flags=(("finger_mode", TIP_FINGER_MODE_MEANINGS),)),
     EffectSpec("joint_springs", params=(("K1", "spring_k1"), ("K2", "spring_k2")),
                params_text="stiffnesses, e.g. joint_springs: {K1: 0.01, K2: 0.01}",
+               params_help=("Proximal joint spring stiffness", "Distal joint spring stiffness"),
                no_outputs=(("forces", "the contact forces of MODEL 5.6 leave the springs out"),),
                sweep_refusal="forces and the manipulation metric leave the springs out; switch "
                              "them off",
