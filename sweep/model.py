@@ -300,7 +300,8 @@ def validate_scene(effects: Effects, outputs: Outputs) -> None:
 class EffectSpec:
     """One effect, declared once: what the model, the config, `sweep map`, the schema and the
     files know of it. Its switch is the `Effects` field `name`; its kernel block, if any, is
-    built in `sweep.compute.layout.kernel_records` (kernels/records.py `EffectBlocks`)."""
+    declared beside its record in `sweep/kernels/records.py` (`BLOCKS`, the fields of
+    `EffectBlocks`), docs/architecture.md's recipe."""
 
     name: str               # YAML key under `effects:`, name in `--effects`, `Effects` field
     #: its parameters, (YAML key and file attribute key, `Effects` field): given in the config
@@ -315,7 +316,8 @@ class EffectSpec:
     #: the validation of its parameters, `(design, command, limits, effects) -> None`, raising
     #: ModelInputError (`validate_inputs` calls it when the effect is on)
     validate: object = None
-    #: summary fields stored only with it (sweep.schema: absent from other maps and stores)
+    #: summary counts stored only with it, (name, long_name): sweep.schema declares them (int32,
+    #: after the other summary fields: the kernels' summary row), absent from other files
     summary_fields: tuple = ()
     #: categorical fields whose codes grow with it: field -> meanings of all its codes
     flags: tuple = ()
@@ -342,7 +344,10 @@ EFFECTS = (
                sweep_refusal="forces and the manipulation metric leave the springs out; switch "
                              "them off",
                validate=validate_springs),
-    EffectSpec("finger_collision", summary_fields=("n_collision_changed",)),
+    EffectSpec("finger_collision", summary_fields=(
+        ("n_collision_changed", "feasible grid points where finger_collision changed a finger's "
+                                "configuration (the fingers met while closing, model-notes D14)"),
+    )),
 )
 EFFECT_NAMES = tuple(spec.name for spec in EFFECTS)
 IMPLEMENTED_EFFECTS = frozenset(EFFECT_NAMES)

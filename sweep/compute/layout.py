@@ -12,8 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kernels.records import (
-    NO_EFFECTS, EffectBlocks, FingerArrays, FingerCollision, JointSprings, TipContact, FingerModel,
-    ForceArrays, OutcomeArrays, SolverSettings,
+    EffectBlocks, FingerArrays, FingerModel, ForceArrays, OutcomeArrays, SolverSettings,
+    effect_blocks,
 )
 from ..grid import BYTES_PER_POINT, check_memory, grid_index_bounds, palm_half_width_steps
 from ..model import (
@@ -83,28 +83,15 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
                    effects: Effects, tension: float = 1.0
                    ) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
     """The kernels' parameter records of a map (one place: the map and the sweep paths).
-    An effect that is off is None in EffectBlocks (compiled out of the kernels). `tension` is
-    the tendon tension of the finger the blocks are for (springs act per unit tension)."""
+    An effect that is off is None in EffectBlocks (compiled out of the kernels; the blocks are
+    built by kernels/records.py's BLOCKS). `tension` is the tendon tension of the finger the
+    blocks are for (springs act per unit tension)."""
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol),
                             TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP))
-    springs = None
-    if effects.joint_springs:
-        springs = JointSprings(float(effects.spring_k1), float(effects.spring_k2),
-                               float(tension))
-    collision = None
-    if effects.finger_collision:
-        # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
-        collision = FingerCollision(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    tip = None
-    if effects.tip_contact:
-        # the tip path is stepped and bracketed like the reconfiguration path (D15)
-        tip = TipContact(float(accuracy.reconfig_step), float(accuracy.root_tol))
-    if tip is None and springs is None and collision is None:
-        return finger, solver, NO_EFFECTS
-    return finger, solver, EffectBlocks(tip, springs, collision)
+    return finger, solver, effect_blocks(effects, accuracy, tension)
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).
