@@ -28,7 +28,8 @@ import numpy as np
 from sweep.kernels.finger import solve_finger
 from sweep.kernels.point import finger_effects, point_outcome
 from sweep.kernels.records import Hand
-from sweep.compute.maps import compute_map, kernel_records
+from sweep.compute.layout import kernel_records
+from sweep.compute.maps import compute_map
 from sweep.model import (END_STALLED, REACHED, VERTEX_POINT, Accuracy, Command, Design, Effects,
                          Grid, Limits, Part)
 from sweep.report.plot import sliding_points

@@ -300,13 +300,15 @@ def validate_scene(effects: Effects, outputs: Outputs) -> None:
 class EffectSpec:
     """One effect, declared once: what the model, the config, `sweep map`, the schema and the
     files know of it. Its switch is the `Effects` field `name`; its kernel block, if any, is
-    built in `sweep.compute.maps.kernel_records` (kernels/records.py `EffectBlocks`)."""
+    declared beside its record in `sweep/kernels/records.py` (`BLOCKS`, the fields of
+    `EffectBlocks`), docs/architecture.md's recipe."""
 
     name: str               # YAML key under `effects:`, name in `--effects`, `Effects` field
     #: its parameters, (YAML key and file attribute key, `Effects` field): given in the config
     #: as a mapping `NAME: {KEY: value, ...}` (each >= 0), written to every file as that mapping
     params: tuple = ()
     params_text: str = ""   # what the parameters are, for the config's "give the ..." message
+    params_help: tuple = ()  # each parameter's `sweep map` flag help (the flag is --KEY)
     #: map outputs it cannot be combined with: (output, why) -> `validate_scene`'s message
     no_outputs: tuple = ()
     #: why the config refuses it with forces or the manipulation metric ("" if it does not)
@@ -314,7 +316,8 @@ class EffectSpec:
     #: the validation of its parameters, `(design, command, limits, effects) -> None`, raising
     #: ModelInputError (`validate_inputs` calls it when the effect is on)
     validate: object = None
-    #: summary fields stored only with it (sweep.schema: absent from other maps and stores)
+    #: summary counts stored only with it, (name, long_name): sweep.schema declares them (int32,
+    #: after the other summary fields: the kernels' summary row), absent from other files
     summary_fields: tuple = ()
     #: categorical fields whose codes grow with it: field -> meanings of all its codes
     flags: tuple = ()
@@ -336,11 +339,15 @@ EFFECTS = (
                flags=(("finger_mode", TIP_FINGER_MODE_MEANINGS),)),
     EffectSpec("joint_springs", params=(("K1", "spring_k1"), ("K2", "spring_k2")),
                params_text="stiffnesses, e.g. joint_springs: {K1: 0.01, K2: 0.01}",
+               params_help=("Proximal joint spring stiffness", "Distal joint spring stiffness"),
                no_outputs=(("forces", "the contact forces of MODEL 5.6 leave the springs out"),),
                sweep_refusal="forces and the manipulation metric leave the springs out; switch "
                              "them off",
                validate=validate_springs),
-    EffectSpec("finger_collision", summary_fields=("n_collision_changed",)),
+    EffectSpec("finger_collision", summary_fields=(
+        ("n_collision_changed", "feasible grid points where finger_collision changed a finger's "
+                                "configuration (the fingers met while closing, model-notes D14)"),
+    )),
 )
 EFFECT_NAMES = tuple(spec.name for spec in EFFECTS)
 IMPLEMENTED_EFFECTS = frozenset(EFFECT_NAMES)

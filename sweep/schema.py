@@ -165,15 +165,14 @@ SUMMARY = (
     Field("n_caged_points", "int32", (),
           "grid points that are caged themselves (stable, contained, L_open < 2r)", _COUNT,
           "caging"),
-    # Only with the finger_collision effect (EFFECT_SUMMARY): absent from other maps and stores.
-    Field("n_collision_changed", "int32", (),
-          "feasible grid points where finger_collision changed a finger's configuration "
-          "(the fingers met while closing, model-notes D14)", _COUNT),
-)
+) + tuple(
+    # Only with their effect (model.EFFECTS, EFFECT_SUMMARY): absent from other maps and stores.
+    Field(name, "int32", (), long_name, _COUNT)
+    for spec in EFFECTS for name, long_name in spec.summary_fields)
 
 #: Summary fields that exist only when an effect is on (maps and stores of other scenes keep
 #: the fields they always had).
-EFFECT_SUMMARY = {name: spec.name for spec in EFFECTS for name in spec.summary_fields}
+EFFECT_SUMMARY = {name: spec.name for spec in EFFECTS for name, _ in spec.summary_fields}
 
 
 def summary_field_on(name: str, effects_on) -> bool:
@@ -192,6 +191,8 @@ COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
 REFINE_ROLE_MEANINGS = ("screened", "eliminated", "near_tie", "best")
 #: Outcome of a part's refinement (`refine_status`).
 REFINE_STATUS_MEANINGS = ("not_refined", "certified", "near_tie")
+#: The design parameters: config keys, store dimensions and coordinates (l1 l2 r1 r2 w).
+DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_DIMS = ("part",)   # stands for (r, mu) or (r, mu, command)
 
 REFINE_FIELDS = (

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 
 from sweep.kernels.collision import meeting_progress, resolve_collisions, stopped_finger
 from sweep.kernels.records import FingerCollision, new_finger_arrays
-from sweep.compute.maps import compute_map, kernel_records
+from sweep.compute.layout import kernel_records
+from sweep.compute.maps import compute_map
 from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
                          Limits, Part)
 

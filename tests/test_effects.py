@@ -159,7 +159,7 @@ def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
     # computed (fields keep their "not computed" values), and Lambda is NaN
     from sweep.kernels.field import finger_field, map_from_fingers
     from sweep.kernels.records import Hand, new_finger_arrays, new_outcome_arrays
-    from sweep.compute.maps import finger_offsets, kernel_records, map_grid
+    from sweep.compute.layout import finger_offsets, kernel_records, map_grid
     from sweep.model import Accuracy, Limits
     from sweep.schema import SUMMARY_INDEX
 

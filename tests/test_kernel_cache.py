@@ -41,7 +41,7 @@ def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
 
 def test_numba_cache_dir_is_respected(tmp_path):
     # one small kernel is enough to show where the cache goes (compiling them all takes long)
-    code = ("from sweep.kernels.geometry import wrap_angle; assert wrap_angle(7.0) < 3.2")
+    code = ("from sweep.kernels.finger import wrap_angle; assert wrap_angle(7.0) < 3.2")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
     caches = list(tmp_path.glob("kernels-*/**/*.nbi"))

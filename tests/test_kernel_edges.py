@@ -62,8 +62,9 @@ def test_distal_tangent_at_b_is_not_a_vertex_strike():
 
 
 # ---------------------------------------------------------------------------------------------
-# path.py: events tied exactly go to the first in D4's order (stick, distal stop, proximal stop,
-# slip); events that start within one step are bracketed to 1e-12 whatever root_tol (D19)
+# finger.py, paths: events tied exactly go to the first in D4's order (stick, distal stop,
+# proximal stop, slip); events that start within one step are bracketed to 1e-12 whatever
+# root_tol (D19)
 # ---------------------------------------------------------------------------------------------
 def test_contact_reaching_the_tip_exactly_at_the_proximal_stop_rests_on_the_stop():
     """R = 1, no friction: the distal contact slides to the tip and reaches it (k2 = l2 +
@@ -144,7 +145,7 @@ def test_distal_contact_on_the_proximal_stop_sticks_at_zero_torque_balance():
 
 
 # ---------------------------------------------------------------------------------------------
-# statics.py: a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
+# finger.py (statics): a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("t2, on_stop", [
     (TH2MIN, True), (TH2MIN + 5e-13, True), (TH2MIN + 1e-9, False),

@@ -412,7 +412,7 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     from sweep.kernels.point import point_outcome
     from sweep.kernels.records import Hand
     from sweep.kernels.trajectory import SLIDE_DIRECTIONS, lowest_on_circle
-    from sweep.compute.maps import kernel_records
+    from sweep.compute.layout import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
 
     design, part, h = Design(2.0, 1.6, 0.16, 0.06, 1.2), Part(0.4, 0.1), 0.05

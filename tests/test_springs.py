@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from sweep.kernels.finger import solve_finger
-from sweep.compute.maps import compute_map, kernel_records
+from sweep.compute.layout import kernel_records
+from sweep.compute.maps import compute_map
 from sweep.model import (DISTAL_ONLY, TWO_PHALANX, Accuracy, Command, Design, Effects, Grid,
                          Limits, ModelInputError, Part)
 
@@ -140,7 +141,7 @@ def test_springs_stronger_than_the_tendon_are_refused(k1, k2, command, message):
 def test_sweep_path_with_springs_gives_the_maps_summaries():
     # the sweep (one shared finger field per cell, cells in parallel) and compute_map agree
     from sweep.compute.batch import summarize_cells
-    from sweep.compute.maps import summary_attrs
+    from sweep.compute.layout import summary_attrs
 
     effects = Effects(joint_springs=True, spring_k1=0.03, spring_k2=0.05)
     cells = np.array([[2.0, 1.6, 0.2, 0.14, 0.4, 0.4], [1.0, 0.8, 0.12, 0.1, 0.8, 0.1]])

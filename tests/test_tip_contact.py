@@ -64,7 +64,7 @@ IMPLS = ["reference", pytest.param("kernel", marks=needs_kernel)]
 # ---------------------------------------------------------------------------------------------
 def kernel_finger(dx, dy, l1, l2, r1, r2, r, mu, step=0.01, root_tol=1e-12):
     from sweep.kernels.finger import solve_finger
-    from sweep.compute.maps import kernel_records
+    from sweep.compute.layout import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
     finger, solver, effects = kernel_records(
         Design(l1, l2, r1, r2, 0.0), Part(r, mu), Limits(),

@@ -10,7 +10,8 @@ from sweep.compute.batch import cell_map_fields, summarize_cells
 from sweep.kernels.records import Hand, new_outcome_arrays
 from sweep.kernels.trajectory import trajectory_ends
 from sweep.kernels.streamline import streamline_ends
-from sweep.compute.maps import compute_map, kernel_records
+from sweep.compute.layout import kernel_records
+from sweep.compute.maps import compute_map
 from sweep.model import (
     END_CAGED,
     END_EJECTION,

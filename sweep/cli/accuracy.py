@@ -34,6 +34,7 @@ def accuracy(config, n_sample, out, maps, progress):
     name the recommended setting: the cheapest whose best design per part equals the
     reference's. Resumes if killed."""
     from ..report.accuracy import write_outputs
+    from ..runs.refine import refine_designs
     from ..runs.accuracy import (DEFAULT_SAMPLE, check_sample, parse_witness, run_study,
                                  work_dir_key)
     from ..model import ModelInputError
@@ -64,7 +65,7 @@ def accuracy(config, n_sample, out, maps, progress):
         bar.refresh()
 
     started = time.perf_counter()
-    study = run_study(config, n_sample, work, tell, witnesses)
+    study = run_study(config, n_sample, work, tell, witnesses, refine_designs)
     bar.close()
     words = ["sweep", "accuracy", config.path or config.name]
     if n_sample != DEFAULT_SAMPLE:

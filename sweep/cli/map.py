@@ -12,8 +12,20 @@ from pathlib import Path
 
 import click
 
-from ..model import TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy  # plain Python: cheap
+from ..model import (  # plain Python: cheap
+    EFFECT_NAMES, EFFECTS, TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy,
+)
 from .common import SweepCommand, UserError, real_path
+
+
+def effect_parameter_options(command):
+    """One option per effect parameter of model.EFFECTS (`--K1`, `--K2`), into the command's
+    `effect_params` keyword (`Effects` field -> value or None)."""
+    for spec in reversed(EFFECTS):
+        for (key, field), text in reversed(tuple(zip(spec.params, spec.params_help))):
+            command = click.option(f"--{key}", field, type=float, default=None,
+                                   help=f"{text} (with --effects ...,{spec.name}).")(command)
+    return command
 
 
 @click.command("map", cls=SweepCommand)
@@ -59,19 +71,16 @@ from .common import SweepCommand, UserError, real_path
               help="Comma-separated outputs to compute: energy, equilibrium, caging, forces "
                    "[default: energy,equilibrium,caging]; only these are computed (MODEL 9).")
 @click.option("--effects", "effects_spec", default=None, metavar="NAMES",
-              help="Comma-separated effects on (all of them, friction included): friction, "
-                   "tip_contact, joint_springs, finger_collision [default: friction]; 'none' "
-                   "for the frictionless base model.")
-@click.option("--K1", "spring_k1", type=float, default=None,
-              help="Proximal joint spring stiffness (with --effects ...,joint_springs).")
-@click.option("--K2", "spring_k2", type=float, default=None,
-              help="Distal joint spring stiffness (with --effects ...,joint_springs).")
+              help=f"Comma-separated effects on (all of them, friction included): "
+                   f"{', '.join(EFFECT_NAMES)} [default: friction]; 'none' for the "
+                   f"frictionless base model.")
+@effect_parameter_options
 @click.option("--overwrite", is_flag=True, help="Replace existing --out / --plot files.")
 @click.option("--wait", is_flag=True,
               help="If another process is writing the same --out, wait for it.")
 def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
                 theta2_max, reconfig_step, root_tol, trajectory, threads, out, plot_path, forces,
-                outputs_spec, effects_spec, spring_k1, spring_k2, overwrite, wait):
+                outputs_spec, effects_spec, overwrite, wait, **effect_params):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
     Per grid point of part centres: finger configurations and modes, energy, class, part
@@ -79,7 +88,8 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
     """
-    from ..compute.maps import compute_map, map_grid
+    from ..compute.layout import map_grid
+    from ..compute.maps import compute_map
     from ..grid import map_bytes_per_point
     from ..model import (
         Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,
@@ -95,7 +105,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     accuracy = Accuracy(reconfig_step=reconfig_step, root_tol=root_tol, trajectory=trajectory)
     try:
         outputs = _outputs_from_flags(outputs_spec, forces)
-        effects = _effects_from_flags(effects_spec, spring_k1, spring_k2, mu)
+        effects = _effects_from_flags(effects_spec, effect_params, mu)
         validate_inputs(design, part, command, limits, accuracy, effects)
         try:
             validate_scene(effects, outputs)
@@ -105,7 +115,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         map_grid(design, part, grid, map_bytes_per_point(outputs.forces, written=True))
         _check_window_meets_reach(design, part, grid)
         threads = resolve_threads(threads)
-    except (ModelInputError, RunError) as err:
+    except (ModelInputError, RunError) as err:   # SceneError is a ModelInputError
         raise UserError(str(err)) from None
     if plot_path is not None and not outputs.caging:
         raise UserError("--plot draws trajectories and caging scores: it needs the caging "
@@ -180,9 +190,11 @@ def _outputs_from_flags(spec, forces):
         raise ModelInputError(f"--outputs: {msg}") from None
 
 
-def _effects_from_flags(spec, k1, k2, mu):
-    """The Effects of `--effects`, `--K1`, `--K2`; ModelInputError if bad."""
-    from ..model import EFFECT_NAMES, Effects, ModelInputError
+def _effects_from_flags(spec, effect_params, mu):
+    """The Effects of `--effects` and the effect parameters' flags, checked by the config's own
+    `effects_from_switches`; ModelInputError (SceneError) if bad."""
+    from ..config.parse import effects_from_switches
+    from ..model import ModelInputError
 
     if spec is None:
         names = ["friction"]
@@ -194,14 +206,10 @@ def _effects_from_flags(spec, k1, k2, mu):
     if unknown:
         raise ModelInputError(f"--effects: unknown effect {unknown[0]!r} "
                               f"(valid: {', '.join(EFFECT_NAMES)}, or none)")
-    springs = "joint_springs" in names
-    if springs and (k1 is None or k2 is None):
-        raise ModelInputError("--effects joint_springs needs --K1 and --K2")
-    if not springs and (k1 is not None or k2 is not None):
-        raise ModelInputError("--K1/--K2 are joint spring stiffnesses: add joint_springs to "
-                              "--effects")
-    if "friction" not in names and mu != 0:
-        raise ModelInputError(f"--effects lists every effect on and friction is not among them, "
-                              f"so --mu must be 0 (got {mu}); add friction to keep it")
-    return Effects(**{n: n in names for n in EFFECT_NAMES},
-                   spring_k1=float(k1 or 0.0), spring_k2=float(k2 or 0.0))
+    params = {}
+    for effect in EFFECTS:
+        given = {key: effect_params[field] for key, field in effect.params
+                 if effect_params.get(field) is not None}
+        if given:
+            params[effect.name] = given
+    return effects_from_switches({n: n in names for n in EFFECT_NAMES}, params, (mu,), cli=True)

@@ -42,7 +42,8 @@ def report(stores, out, top_k, overwrite, wait):
     from ..outputs import OutputLock, make_parent
     from ..report.build import ALL_FILES, build_report
     from ..report.compare import FILES, build_comparison, comparison_identity, open_pair
-    from ..report.data import MARKER, identity, open_store, resolve_top_k
+    from ..report.data import MARKER, identity, resolve_top_k
+    from ..report.stores import open_store
 
     if len(stores) > 2:
         raise UserError(f"give one store, or two to compare (got {len(stores)})")

@@ -6,6 +6,8 @@ relative to its base, so all widths and both fingers are shifts/mirrors of one f
 """
 from __future__ import annotations
 
+import contextlib
+
 import numba
 import numpy as np
 
@@ -16,7 +18,23 @@ from ..kernels.records import Hand, ManipulationOut
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS
 from .manipulation import ManipulationChunk, PartReduction
-from .maps import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+
+
+@contextlib.contextmanager
+def numba_threads(n: int | None):
+    """Set Numba's thread count for the block (None: leave Numba's default, every core), restore
+    it after. Per-thread buffers in the kernels are sized by `numba.get_num_threads()`."""
+    old = numba.get_num_threads()
+    if n is not None:
+        if not 1 <= n <= numba.config.NUMBA_NUM_THREADS:
+            raise ModelInputError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
+                           f"(this machine's cores), got {n}")
+        numba.set_num_threads(n)
+    try:
+        yield numba.get_num_threads()
+    finally:
+        numba.set_num_threads(old)
 
 
 def _cell_design_part(cell, w: float) -> tuple[Design, Part]:

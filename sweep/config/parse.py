@@ -134,33 +134,8 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
         raise SceneError(f"accuracy.trajectory: {accuracy.trajectory!r} is not implemented "
                          f"(valid: {', '.join(TRAJECTORY_METHODS)}; 'discrete' means grid8)")
 
-    eff = _mapping(raw.get("effects", {}), "effects", EFFECT_KEYS)
-    flags = {}
-    for spec in EFFECTS:
-        given = eff.get(spec.name, False)
-        if spec.params and isinstance(given, dict):  # NAME: {KEY: value, ...} switches it on
-            keys = tuple(key for key, _ in spec.params)
-            block = _mapping(given, f"effects.{spec.name}", keys, required=keys)
-            for key, field in spec.params:
-                value = _number(block[key], f"effects.{spec.name}.{key}")
-                if not value >= 0:
-                    raise SceneError(f"effects.{spec.name}.{key}: must be >= 0, got {value!r}")
-                flags[field] = value
-            eff = {**eff, spec.name: True}
-        elif spec.params and given is True:
-            raise SceneError(f"effects.{spec.name}: give the {spec.params_text}")
-    for k in EFFECT_KEYS:
-        v = eff.get(k, k == "friction")
-        if not isinstance(v, bool):
-            raise SceneError(f"effects.{k}: must be true or false, got {v!r}")
-        if v and k not in IMPLEMENTED_EFFECTS:
-            raise SceneError(f"effects.{k}: not implemented yet (implemented: "
-                             f"{', '.join(sorted(IMPLEMENTED_EFFECTS))}); set it to false")
-        flags[k] = v
-    effects = Effects(**flags)
-    if not effects.friction and any(m != 0 for m in values["mu"]):
-        raise SceneError("effects.friction: false, but parts.mu has values other than 0; for a "
-                         "frictionless sweep write parts.mu: [0.0]")
+    switches, params = _effect_switches(raw.get("effects", {}))
+    effects = effects_from_switches(switches, params, values["mu"])
 
     # Backstop: the model's own edge validation on the extreme corners of the sweep.
     for pick in (min, max):
@@ -238,6 +213,57 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
 # ---------------------------------------------------------------------------------------------
 # Pieces
 # ---------------------------------------------------------------------------------------------
+def _effect_switches(eff) -> tuple[dict, dict]:
+    """A config's `effects:` mapping -> the effects it switches on or off (name -> bool) and the
+    parameters it gives (name -> {key: value}); `NAME: {KEY: value, ...}` switches NAME on."""
+    eff = _mapping(eff, "effects", EFFECT_KEYS)
+    switches, params = {}, {}
+    for spec in EFFECTS:
+        given = eff.get(spec.name, spec.name == "friction")
+        if spec.params and isinstance(given, dict):
+            keys = tuple(key for key, _ in spec.params)
+            params[spec.name] = _mapping(given, f"effects.{spec.name}", keys, required=keys)
+            given = True
+        if not isinstance(given, bool):
+            raise SceneError(f"effects.{spec.name}: must be true or false, got {given!r}")
+        switches[spec.name] = given
+    return switches, params
+
+
+def effects_from_switches(switches: dict, params: dict, mus, cli: bool = False) -> Effects:
+    """The one check of effect switches and parameters (model.EFFECTS), for a config's
+    `effects:` and for `sweep map`'s `--effects` and parameter flags (`cli`: the messages name
+    the flags). switches: name -> on; params: name -> {key: value} as given; mus: the friction
+    coefficients of the parts. A one-line SceneError naming the key or flag."""
+    flags = {}
+    for spec in EFFECTS:
+        on, given = switches.get(spec.name, False), params.get(spec.name)
+        keys = tuple(key for key, _ in spec.params)
+        if on and spec.name not in IMPLEMENTED_EFFECTS:
+            raise SceneError(f"effects.{spec.name}: not implemented yet (implemented: "
+                             f"{', '.join(sorted(IMPLEMENTED_EFFECTS))}); set it to false")
+        if on and keys and (given is None or set(given) != set(keys)):
+            raise SceneError(f"--effects {spec.name} needs {' and '.join('--' + k for k in keys)}"
+                             if cli else f"effects.{spec.name}: give the {spec.params_text}")
+        if given is not None and not on:   # only flags give parameters apart from the switch
+            raise SceneError(f"{'/'.join('--' + k for k in keys)} are {spec.name}'s parameters: "
+                             f"add {spec.name} to --effects")
+        for key, field in spec.params if on else ():
+            where = f"--{key}" if cli else f"effects.{spec.name}.{key}"
+            value = _number(given[key], where)
+            if not value >= 0:
+                raise SceneError(f"{where}: must be >= 0, got {value!r}")
+            flags[field] = value
+        flags[spec.name] = on
+    effects = Effects(**flags)
+    if not effects.friction and any(m != 0 for m in mus):
+        raise SceneError(f"--effects lists every effect on and friction is not among them, so "
+                         f"--mu must be 0 (got {mus[0]}); add friction to keep it" if cli else
+                         "effects.friction: false, but parts.mu has values other than 0; for a "
+                         "frictionless sweep write parts.mu: [0.0]")
+    return effects
+
+
 def _mapping(obj, key: str, valid, required=()) -> dict:
     if not isinstance(obj, dict):
         raise SceneError(f"{key}: must be a mapping with keys {', '.join(valid)}, "

@@ -33,9 +33,8 @@ from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, cell_bytes, cell_e
                    grid_index_bounds, part_lattice_columns)
 from ..model import (EFFECT_NAMES, OUTPUT_NAMES, Accuracy, Design, Effects, Grid, Limits,
                      ModelInputError, Outputs, Part, effect_attributes)
-from ..schema import SUMMARY_FIELDS
+from ..schema import DESIGN_KEYS, SUMMARY_FIELDS  # noqa: F401 (DESIGN_KEYS: config keys)
 
-DESIGN_KEYS = ("l1", "l2", "r1", "r2", "w")
 PART_KEYS = ("r", "mu")
 #: Dimensions of the results store, in storage order (a `command` dimension is appended when a
 #: scene has more than one command).
@@ -296,7 +295,7 @@ class Scene:
 
 def grid_points(l1: float, l2: float, w: float, r: float, h: float) -> int:
     """Points of the default whole-reach grid of one map (MODEL 8; as
-    `sweep.compute.maps.map_grid`)."""
+    `sweep.compute.layout.map_grid`)."""
     try:
         i0, i1, j0, j1 = grid_index_bounds(Design(l1, l2, 1.0, 1.0, w), Part(r, 0.0), Grid(h=h))
     except ModelInputError:

@@ -1,9 +1,8 @@
 """Numba kernels. Only this package holds `@njit` code; the layers above call it.
 
-geometry  closed-form contact geometry (MODEL 3) and vertex strikes (MODEL 4)
-statics   joint torques and stick-slip tests (MODEL 5.1-5.3), vertex contacts (tip_contact)
-path      the paths of a finger that cannot hold: edge (MODEL 5.3) and tip (tip_contact)
-finger    one finger: closing sequence, stick-slip, energy, forces (MODEL 4-6)
+finger    one finger's mechanics: contact geometry and vertex strikes (MODEL 3, 4), statics in
+          joint-torque space (MODEL 5.1-5.3, tip_contact), the edge and tip paths of a finger
+          that cannot hold, the closing sequence, energy and forces (MODEL 4-6)
 part      part equilibrium, containment, opening (MODEL 7, 8)
 collision finger_collision: where the two closing fingers first meet (MODEL 9, model-notes D14)
 records   the parameter and result records every kernel takes and returns
@@ -44,6 +43,6 @@ def _cache_root() -> Path:
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
 try:
-    from . import cells, collision, field, finger, geometry, hull, part, records  # noqa: E402,F401
+    from . import cells, collision, field, finger, hull, part, records  # noqa: E402,F401
 finally:
     numba.config.CACHE_DIR = _user_cache_dir

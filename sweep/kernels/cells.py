@@ -18,7 +18,7 @@ from .part import (fingers_cross, link_vectors, part_contained, polyline_from_li
                    tip_clearance, touches_palm)
 from .hull import convex_hull, inscribed_radius
 from .records import (
-    EffectBlocks,
+    blocks_of,
     FingerModel,
     Hand,
     SettledFingers,
@@ -275,27 +275,27 @@ def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, the
     want: bool (n, n_w), the maps to compute; manip: a ManipulationOut with one row per cell,
     or None; n_threads: Numba's thread count (numba.get_num_threads(), which a cached kernel
     cannot call)."""
-    tip, springs, collision = effects  # prange captures blocks only as arguments
     memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
-    if collision is not None and cells.shape[0] > 0:
+    if effects.finger_collision is not None and cells.shape[0] > 0:
         memo_shape = (n_threads, ws.shape[0], nys.max(), 2 * ncols.max() + 1, 5)
     memo = np.empty(memo_shape)
     memo_key = np.full((memo_shape[0], 2), np.nan)
+    # prange captures blocks only as arguments (records.blocks_of)
     summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, want, manip,
-                              memo, memo_key)
+                              theta2_max, solver, out, want, manip, memo, memo_key,
+                              *effects[:])
 
 
 @njit(cache=True, parallel=True)
 def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, tip, springs, collision, out, want, manip,
-                              memo, memo_key):
+                              theta2_max, solver, out, want, manip, memo, memo_key, b0=None,
+                              b1=None, b2=None, b3=None, b4=None, b5=None):
     for c in prange(cells.shape[0]):
         t = numba.get_thread_id() if memo.shape[0] > 0 else 0
         memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
                      and cells[c + 1, 1] == cells[c, 1])
         summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
-                       EffectBlocks(tip, springs, collision), ws, steps, ncols[c],
+                       blocks_of(b0, b1, b2, b3, b4, b5), ws, steps, ncols[c],
                        nys[c], h, f_left, f_right, out[c], want[c], manip, c,
                        memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
                        memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),

@@ -33,7 +33,7 @@ from .finger import finger_statics, solve_finger
 from .part import finger_polyline, fingers_cross, part_contained, part_in_equilibrium, \
     tip_clearance
 from .point import classify_point, point_energy
-from .records import EffectBlocks, FingerState
+from .records import FingerState, blocks_of
 from .trajectory import trajectories
 
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
@@ -78,23 +78,23 @@ def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
 @njit(cache=True)
 def finger_field(dxs, dys, finger, solver, effects, fingers, side):
     """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    tip, springs, collision = effects
-    finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side)
+    finger_field_of_blocks(dxs, dys, finger, solver, fingers, side, *effects[:])
 
 
 @njit(cache=True, parallel=True)
-def finger_field_of_blocks(dxs, dys, finger, solver, tip, springs, collision, fingers, side):
-    """finger_field's parallel loop. The blocks come as arguments: a prange loop cannot capture
-    a record of blocks, nor a record unpacked from one (parfor lowering finds no definition of
-    it, numba 0.68.1), but it can capture a record that is an argument."""
+def finger_field_of_blocks(dxs, dys, finger, solver, fingers, side, b0=None, b1=None, b2=None,
+                           b3=None, b4=None, b5=None):
+    """finger_field's parallel loop. The blocks come as arguments (records.blocks_of): a prange
+    loop cannot capture a record of blocks, nor a record unpacked from one (parfor lowering
+    finds no definition of it, numba 0.68.1), but it can capture a record that is an argument."""
     for j in prange(dys.shape[0]):
-        finger_row_of_blocks(j, dxs, dys[j], finger, solver, tip, springs, collision, fingers,
-                             side)
+        finger_row_of_blocks(j, dxs, dys[j], finger, solver, fingers, side, b0, b1, b2, b3, b4,
+                             b5)
 
 
 @njit(cache=True)
-def finger_row_of_blocks(j, dxs, dy, finger, solver, tip, springs, collision, fingers, side):
-    finger_row(j, dxs, dy, finger, solver, EffectBlocks(tip, springs, collision), fingers, side)
+def finger_row_of_blocks(j, dxs, dy, finger, solver, fingers, side, b0, b1, b2, b3, b4, b5):
+    finger_row(j, dxs, dy, finger, solver, blocks_of(b0, b1, b2, b3, b4, b5), fingers, side)
 
 
 @njit(cache=True)

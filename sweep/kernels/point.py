@@ -10,7 +10,7 @@ from ..model import EJECT, FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREAC
     VERTEX_POINT
 from .finger import OVERLAP, finger_energy, solve_finger, spring_energy
 from .collision import collide
-from .records import EffectBlocks, JointSprings
+from .records import JointSprings, with_joint_springs
 
 
 @njit(cache=True)
@@ -42,16 +42,15 @@ def point_energy(a1l, a2l, a1r, a2r, finger, hand, springs):
 def finger_effects(effects, tension):
     """A finger's effect blocks: the springs act per unit of that finger's tendon tension
     (records.JointSprings), as in `maps.compute_map`'s per-side blocks."""
-    return with_spring_tension(effects.tip_contact, effects.joint_springs,
-                               effects.finger_collision, tension)
+    return with_spring_tension(effects, effects.joint_springs, tension)
 
 
 @njit(cache=True)
-def with_spring_tension(tip, springs, collision, tension):
-    # the blocks as arguments: Numba prunes `is None` only on a function's own arguments
+def with_spring_tension(effects, springs, tension):
+    # the block as an argument: Numba prunes `is None` only on a function's own arguments
     if springs is None:
-        return EffectBlocks(tip, springs, collision)
-    return EffectBlocks(tip, JointSprings(springs.k1, springs.k2, tension), collision)
+        return effects
+    return with_joint_springs(effects, JointSprings(springs.k1, springs.k2, tension))
 
 
 @njit(cache=True)

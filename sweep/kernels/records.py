@@ -40,34 +40,6 @@ class SolverSettings(NamedTuple):
     streamline_step: float  # integrator step of the continuous method, in grid steps
 
 
-class EffectBlocks(NamedTuple):
-    """The parameter block of every effect a scene may switch on (MODEL 9), None when off.
-
-    Numba compiles one specialisation per combination of block types, and a kernel asks for an
-    effect only through a small function taking the block as an argument and testing
-    `block is None`, a test Numba resolves at compile time: an effect that is off costs nothing.
-    A parallel driver takes the record, reads its blocks into locals before its `prange` loop and
-    rebuilds it inside (a `prange` loop cannot capture a record holding records or None).
-    """
-
-    tip_contact: object       # None (the paper's model: vertex strikes are left unresolved)
-    #                           or TipContact
-    joint_springs: object     # None (springs only order the closing)
-    finger_collision: object  # None (the paper's fingers pass through each other)
-
-
-NO_EFFECTS = EffectBlocks(None, None, None)
-
-
-@njit(cache=True)
-def finger_blocks(effects):
-    """The blocks one finger's solution depends on (tip_contact, joint_springs): the finger
-    kernels compiled for a scene serve every scene that differs only in map-level blocks
-    (finger_collision), which saves compiling them again."""
-    return EffectBlocks(effects.tip_contact, effects.joint_springs, None)
-
-
-
 class TipContact(NamedTuple):
     """The tip_contact effect (MODEL 9, model-notes D15): the tip and the distal joint are real
     contacts; a finger whose tip cannot hold follows the tip on the disc, stepped by
@@ -96,6 +68,74 @@ class FingerCollision(NamedTuple):
 
     progress_step: float
     tol: float
+
+
+# ---------------------------------------------------------------------------------------------
+# The effect blocks: one table, one record of blocks
+# ---------------------------------------------------------------------------------------------
+#: Each effect's kernel block (model.EFFECTS names the effect): (name, builder), the builder
+#: `(effects, accuracy, tension) -> block` called when the effect is on (`tension`: the tendon
+#: tension of the finger the blocks are for). The blocks one finger's solution depends on come
+#: first (FINGER_BLOCKS of them), then the map-level ones. This order is EffectBlocks'.
+BLOCKS = (
+    # the tip path is stepped and bracketed like the reconfiguration path (D15)
+    ("tip_contact", lambda effects, accuracy, tension: TipContact(
+        float(accuracy.reconfig_step), float(accuracy.root_tol))),
+    ("joint_springs", lambda effects, accuracy, tension: JointSprings(
+        float(effects.spring_k1), float(effects.spring_k2), float(tension))),
+    # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
+    ("finger_collision", lambda effects, accuracy, tension: FingerCollision(
+        float(accuracy.reconfig_step), float(accuracy.root_tol))),
+)
+FINGER_BLOCKS = 2
+N_BLOCKS = len(BLOCKS)
+#: Argument slots of a parallel driver for the blocks (blocks_of): room for more effects.
+MAX_BLOCKS = 6
+assert N_BLOCKS <= MAX_BLOCKS
+
+EffectBlocks = NamedTuple("EffectBlocks", [(name, object) for name, _ in BLOCKS])
+EffectBlocks.__doc__ = """The parameter block of every effect a scene may switch on (MODEL 9),
+None when off, in the order of BLOCKS.
+
+Numba compiles one specialisation per combination of block types, and a kernel asks for an
+effect only through a small function taking the block as an argument and testing
+`block is None`, a test Numba resolves at compile time: an effect that is off costs nothing.
+A parallel driver cannot let its `prange` loop capture this record (it holds records or None),
+nor a block unpacked from it: the driver's serial half passes the blocks on as separate
+arguments (`*effects[:]`) to its parallel half, whose MAX_BLOCKS slots `b0=None, ...` the loop
+rebuilds the record from (`blocks_of`): a new effect needs no driver changed."""
+
+NO_EFFECTS = EffectBlocks(*(None,) * N_BLOCKS)
+
+
+def effect_blocks(effects, accuracy, tension: float = 1.0):
+    """The EffectBlocks of a map's `model.Effects` (an effect that is off is None)."""
+    return EffectBlocks(*(build(effects, accuracy, tension) if getattr(effects, name) else None
+                          for name, build in BLOCKS))
+
+
+@njit(cache=True)
+def blocks_of(b0=None, b1=None, b2=None, b3=None, b4=None, b5=None):
+    """EffectBlocks from the MAX_BLOCKS slots of a parallel driver (the first N_BLOCKS)."""
+    return EffectBlocks(*(b0, b1, b2, b3, b4, b5)[:N_BLOCKS])
+
+
+@njit(cache=True)
+def finger_blocks(effects):
+    """The blocks one finger's solution depends on (the first FINGER_BLOCKS; the map-level ones
+    None): the finger kernels compiled for a scene serve every scene that differs only in
+    map-level blocks (finger_collision), which saves compiling them again."""
+    return blocks_of(*effects[:FINGER_BLOCKS])
+
+
+_SPRINGS = [name for name, _ in BLOCKS].index("joint_springs")
+_AFTER_SPRINGS = _SPRINGS + 1   # Numba slices tuples by constants only
+
+
+@njit(cache=True)
+def with_joint_springs(effects, springs):
+    """`effects` with its joint_springs block replaced by `springs`."""
+    return EffectBlocks(*(effects[:_SPRINGS] + (springs,) + effects[_AFTER_SPRINGS:]))
 
 
 class SettledFingers(NamedTuple):

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from ..model import TRAJECTORY_METHODS
 from ..outputs import write_bytes_atomic, write_text_atomic
-from ..runs.accuracy import MIN_SAVING, REFERENCE_STEP, REFERENCE_TOL, Study, design_cells, parts
+from ..runs.study import MIN_SAVING, REFERENCE_STEP, REFERENCE_TOL, Study, design_cells, parts
 
 
 # ---------------------------------------------------------------------------------------------

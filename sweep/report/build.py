@@ -35,9 +35,10 @@ from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, b
                      refinement_rows)
 from . import caging, manipulation, tip, usage
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
-                   fmt, identity, md_table, open_store, part_text, report_files, resolve_top_k)
+                   fmt, identity, md_table, part_text, report_files, resolve_top_k)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
                            manipulation_rows, pose_map_part)
+from .stores import open_store
 from .style import png
 from .tip import (CT_COLUMNS, REP_COLUMNS, caging_tip_figure, caging_tip_rows,
                   representative_rows)

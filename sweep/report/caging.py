@@ -6,9 +6,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ..compute.maps import scene_map
+from .data import (DESIGN_DIMS, StoreData, TIE_DIGITS, best_design, design_text, fmt, part_text,
+                   scene_name, short_scene, spread)
 from .plot import draw_map_panel
-from .data import (DESIGN_DIMS, StoreData, TIE_DIGITS, best_design, compute_best_map, design_text,
-                   fmt, part_text, spread)
 from .style import NOTE_UNITLESS
 
 
@@ -50,7 +51,7 @@ def best_caging_figure(st: StoreData, rows: list[dict], log) -> Figure:
     for k, (ri, mi) in enumerate(st.parts()):
         row = by_part[(float(st.r[ri]), float(st.mu[mi]))]
         log(f"best caging maps: {k + 1}/{len(rows)} (r = {row['r']:g}, mu = {row['mu']:g})")
-        m = compute_best_map(st, {d: row[d] for d in DESIGN_DIMS}, ri, mi)
+        m = scene_map(st.scene, {d: row[d] for d in DESIGN_DIMS}, st.r[ri], st.mu[mi])
         title = (f"part r={row['r']:g}, μ={row['mu']:g}\n{design_text(row)}\n"
                  f"Λ={fmt(row['Lambda'])}, caging area={fmt(row['caging_area'])}, "
                  f"{row['n_tied']} tied")
@@ -90,3 +91,39 @@ def reading(st: StoreData, rep) -> list[str]:
         out.append(f"- {len(zero)} part(s) have no design with a positive Λ: "
                    + "; ".join(part_text(r) for r in zero) + ".")
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Two scenes side by side (`compare.py`)
+# ---------------------------------------------------------------------------------------------
+def pair_figure(st1: StoreData, st2: StoreData, rows: list[dict], log) -> Figure:
+    """Per part two panels, scene 1 then scene 2: each scene's best design and its map; the
+    pair framed red where the best gripper changes."""
+    n_r, n_mu = st1.r.size, st1.mu.size
+    fig = Figure(figsize=(8.6 * n_r + 0.5, 3.4 * n_mu + 1.4), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_2d(fig.subplots(n_mu, 2 * n_r, squeeze=False))
+    for k, ((ri, mi), row) in enumerate(zip(st1.parts(), rows)):
+        log(f"best designs of both scenes: {k + 1}/{len(rows)} (r = {row['r']:g}, "
+            f"mu = {row['mu']:g})")
+        for s, st in ((0, st1), (1, st2)):
+            tag = str(s + 1)
+            design = {d: row[f"{d}_{tag}"] for d in DESIGN_DIMS}
+            m = scene_map(st.scene, design, st.r[ri], st.mu[mi])
+            ax = axes[mi, 2 * ri + s]
+            text = (f"{short_scene(st)}: r={row['r']:g}, μ={row['mu']:g}\n"
+                    f"l1={design['l1']:g} l2={design['l2']:g} R={fmt(row[f'R_{tag}'])} "
+                    f"w={design['w']:g}\nΛ={fmt(row[f'Lambda_{tag}'])}")
+            draw_map_panel(ax, m, title=text, colorbar_label=None, fontsize=7)
+            for spine in ax.spines.values():
+                spine.set_edgecolor("#999999" if row["same_gripper"] else "#ff0000")
+                spine.set_linewidth(1.0 if row["same_gripper"] else 3.0)
+    n_changed = sum(not row["same_gripper"] for row in rows)
+    fig.suptitle(f"Best caging design of each part in two scenes: left of each pair "
+                 f"{scene_name(st1)} ({short_scene(st1)}), right {scene_name(st2)} "
+                 f"({short_scene(st2)})\nthick red frames: the best gripper (l1, l2, R, w) changes "
+                 f"({n_changed} of {len(rows)} parts); colour: energy V, each panel its own "
+                 "scale\nwhite hatching: part in equilibrium; pink outline: caged region; greys "
+                 f"and tan: outside P_j; gripper drawn at a representative caged pose; "
+                 f"{NOTE_UNITLESS}", fontsize=12)
+    return fig

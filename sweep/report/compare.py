@@ -27,13 +27,15 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from .compare_figures import (best_designs_figure, caging_tip_figure, manipulation_figure,
-                              usage_figure)
-from .compare_tables import (CAND_COLUMNS, CT_COLUMNS, CT_SUMMARY_COLUMNS, Comparison,
-                             MANIP_COLUMNS, REP_COLUMNS, USAGE_COLUMNS, best_columns,
-                             check_comparable, crossing, make_tables, scene_label, scene_name)
-from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, ReportError, StoreData, csv_bytes,
-                   design_text, fmt, identity, md_table, open_store, report_files, resolve_top_k)
+from . import caging, manipulation, tip, usage
+from .caging import best_caging_rows
+from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, Comparison, StoreData,
+                   crossing, csv_bytes, design_text, fmt, identity, md_table,
+                   report_files, scene_label, scene_name)
+from .manipulation import candidate_rows, manipulation_rows
+from .stores import open_pair
+from .tip import caging_tip_parts, representative_rows
+from .usage import usage_rows
 from .style import png
 
 FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
@@ -45,6 +47,158 @@ FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs
 # ---------------------------------------------------------------------------------------------
 # The report
 # ---------------------------------------------------------------------------------------------
+# ---------------------------------------------------------------------------------------------
+# The tables
+# ---------------------------------------------------------------------------------------------
+# ---------------------------------------------------------------------------------------------
+# Two stores
+# ---------------------------------------------------------------------------------------------
+
+
+# ---------------------------------------------------------------------------------------------
+# Tables
+# ---------------------------------------------------------------------------------------------
+def best_designs(st: StoreData) -> list[dict]:
+    """A scene's best caging design per part (the one place the comparison reads it)."""
+    return best_caging_rows(st)
+
+
+def gripper(row: dict) -> tuple:
+    """What makes a design a gripper: configurations depend on r1, r2 only through R (MODEL
+    11), so designs with the same l1, l2, R, w are the same gripper and tie."""
+    return (row["l1"], row["l2"], float(f"{row['R']:.{TIE_DIGITS}g}"), row["w"])
+
+
+def best_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Per part: each scene's best design, whether they are the same gripper, and what each
+    scene's best design scores in the other scene."""
+    b1, b2 = best_designs(st1), best_designs(st2)
+    rows = []
+    for (ri, mi), x, y in zip(st1.parts(), b1, b2):
+        row = dict(r=x["r"], mu=x["mu"])
+        for s, best in (("1", x), ("2", y)):
+            row.update({f"{k}_{s}": best[k] for k in DESIGN_DIMS + ("R", "Lambda", "n_tied")})
+            row[f"n_caged_crossed_{s}"] = best["n_caged_crossed"]
+            row[f"n_caged_points_{s}"] = best["n_caged_points"]
+            for k in REFINED_KEYS:  # a refined store: the refined best and what backs it
+                if k in best:
+                    row[f"{k}_{s}"] = best[k]
+            row[f"near_tie_{s}"] = best.get("near_tie", [])
+        row["same_gripper"] = gripper(x) == gripper(y)
+        row["Lambda_2_of_best_1"] = float(st2.per_design("Lambda", ri, mi)[x["design_index"]])
+        row["Lambda_1_of_best_2"] = float(st1.per_design("Lambda", ri, mi)[y["design_index"]])
+        rows.append(row)
+    return rows
+
+
+REFINED_KEYS = ("refined_caging_area", "refined_error", "margin", "finest_h", "certification")
+
+
+def best_columns(st1: StoreData, st2: StoreData) -> list[str]:
+    """BEST_COLUMNS, with each refined store's refinement columns after its Lambda."""
+    cols = list(BEST_COLUMNS)
+    for s, st in (("2", st2), ("1", st1)):
+        if st.refined:
+            at = cols.index(f"Lambda_{s}") + 1
+            cols[at:at] = [f"{k}_{s}" for k in REFINED_KEYS]
+    return cols
+
+
+def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Every design's caged and tip-prehension counts in both scenes, for the caging-versus-tip
+    parts (MODEL 10)."""
+    rows = []
+    for ri, mi in caging_tip_parts(st1):
+        c = [st.per_design("n_caged", ri, mi) for st in (st1, st2)]
+        t = [st.per_design("n_tip_prehension", ri, mi) for st in (st1, st2)]
+        for k in range(c[0].size):
+            rows.append(dict(r=float(st1.r[ri]), mu=float(st1.mu[mi]), **st1.design(k),
+                             n_caged_1=int(c[0][k]), n_tip_prehension_1=int(t[0][k]),
+                             n_caged_2=int(c[1][k]), n_tip_prehension_2=int(t[1][k])))
+    return rows
+
+
+def representatives(st1: StoreData, st2: StoreData) -> list[dict]:
+    """Each scene's three representative designs of the caging-versus-tip parts (the rules of
+    `sweep.report.tip.representative_designs`)."""
+    rows = []
+    for s, st in (("1", st1), ("2", st2)):
+        for row in representative_rows(st):
+            rows.append(dict(scene=s, **row))
+    return rows
+
+
+def caging_tip_summary(st1: StoreData, st2: StoreData) -> list[dict]:
+    rows = []
+    for ri, mi in caging_tip_parts(st1):
+        for s, st in (("1", st1), ("2", st2)):
+            caged = st.per_design("n_caged", ri, mi)
+            tip = st.per_design("n_tip_prehension", ri, mi)
+            corr = (float(np.corrcoef(caged, tip)[0, 1]) if caged.std() > 0 and tip.std() > 0
+                    else float("nan"))
+            rows.append(dict(r=float(st.r[ri]), mu=float(st.mu[mi]), scene=s,
+                             designs_caging=int(np.count_nonzero(caged > 0)),
+                             designs_tip=int(np.count_nonzero(tip > 0)),
+                             designs_both=int(np.count_nonzero((caged > 0) & (tip > 0))),
+                             caged_sum=int(caged.sum()), tip_sum=int(tip.sum()),
+                             correlation=corr))
+    return rows
+
+
+def manip_rows(st1: StoreData, st2: StoreData, best1: dict, best2: dict) -> list[dict]:
+    """Per part: Scenario A (each scene's best candidate) and Scenario B under each scene."""
+    m1, m2 = manipulation_rows(st1, best1), manipulation_rows(st2, best2)
+    rows = []
+    for x, y in zip(m1, m2):
+        rows.append(dict(r=x["r"], mu=x["mu"], a_1=x["a"], b_1=x["b"],
+                         b_uncrossed_1=x["b_uncrossed"], winner_1=x["winner"], a_2=y["a"],
+                         b_2=y["b"], b_uncrossed_2=y["b_uncrossed"], winner_2=y["winner"]))
+    return rows
+
+
+def usage_pair_rows(st1: StoreData, st2: StoreData) -> list[dict]:
+    rows = []
+    for x, y in zip(usage_rows(st1), usage_rows(st2)):
+        rows.append(dict(r=x["r"], mu=x["mu"], **{f"{p}_1": x[p] for p in PARAMETERS},
+                         **{f"{p}_2": y[p] for p in PARAMETERS}))
+    return rows
+
+
+BEST_COLUMNS = (["r", "mu"] + [f"{k}_1" for k in DESIGN_DIMS + ("R", "Lambda")]
+                + [f"{k}_2" for k in DESIGN_DIMS + ("R", "Lambda")]
+                + ["same_gripper", "Lambda_2_of_best_1", "Lambda_1_of_best_2", "n_tied_1",
+                   "n_tied_2", "n_caged_crossed_1", "n_caged_crossed_2"])
+CT_COLUMNS = ["r", "mu"] + list(DESIGN_DIMS) + ["n_caged_1", "n_tip_prehension_1", "n_caged_2",
+                                                "n_tip_prehension_2"]
+CT_SUMMARY_COLUMNS = ["r", "mu", "scene", "designs_caging", "designs_tip", "designs_both",
+                      "caged_sum", "tip_sum", "correlation"]
+REP_COLUMNS = ["scene", "r", "mu", "kind", "l1", "l2", "r1", "r2", "w", "R", "n_caged",
+               "n_tip_prehension", "Lambda"]
+CAND_COLUMNS = ["scene", "l1", "l2", "r1", "r2", "R", "a_sum", "parts_positive", "best"]
+MANIP_COLUMNS = ["r", "mu", "a_1", "b_1", "b_uncrossed_1", "winner_1", "a_2", "b_2",
+                 "b_uncrossed_2", "winner_2"]
+USAGE_COLUMNS = (["r", "mu"] + [f"{p}_1" for p in PARAMETERS] + [f"{p}_2" for p in PARAMETERS])
+
+
+def make_tables(st1: StoreData, st2: StoreData, top_k: int | None) -> Comparison:
+    rep = Comparison(best=best_rows(st1, st2), caging_tip=caging_tip_rows(st1, st2),
+                     caging_tip_summary=caging_tip_summary(st1, st2),
+                     representatives=representatives(st1, st2), top_k=top_k)
+    if st1.manipulation:
+        c1, c2 = candidate_rows(st1, top_k), candidate_rows(st2, top_k)
+        rep.candidates = ([dict(scene="1", **c) for c in c1]
+                          + [dict(scene="2", **c) for c in c2])
+        best1 = next(c for c in c1 if c["best"])
+        best2 = next(c for c in c2 if c["best"])
+        rep.best_candidates = (best1, best2)
+        rep.manipulation = manip_rows(st1, st2, best1, best2)
+        rep.usage = usage_pair_rows(st1, st2)
+    return rep
+
+
+# ---------------------------------------------------------------------------------------------
+# The files
+# ---------------------------------------------------------------------------------------------
 def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> dict:
     """What a two-scene report is made from; equal identities make a rerun a no-op."""
     one, two = identity(st1, top_k), identity(st2, top_k)
@@ -52,17 +206,6 @@ def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> di
                 config_hash=[one["config_hash"], two["config_hash"]],
                 store_created_utc=[one["store_created_utc"], two["store_created_utc"]],
                 top_k=top_k, manipulation=st1.manipulation, report_version=__version__)
-
-
-def open_pair(store_1: Path, store_2: Path, top_k: int | None):
-    """Both stores, checked comparable, and the Scenario A top-k they share."""
-    st1, st2 = open_store(Path(store_1)), open_store(Path(store_2))
-    check_comparable(st1, st2)
-    k1, k2 = resolve_top_k(st1, top_k), resolve_top_k(st2, top_k)
-    if k1 != k2:
-        raise ReportError(f"cannot compare {st1.path} with {st2.path}: their Scenario A top-k "
-                          f"differ ({k1} against {k2}); pass --top-k to use one for both")
-    return st1, st2, k1
 
 
 def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | None = None,
@@ -80,10 +223,10 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write("scenario_a_candidates.csv", csv_bytes(rep.candidates, CAND_COLUMNS))
         write("manipulation.csv", csv_bytes(rep.manipulation, MANIP_COLUMNS))
         write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
-        write("parameter_usage.png", png(usage_figure(st1, st2, rep.usage)))
-        write("manipulation.png", png(manipulation_figure(st1, st2, rep)))
-    write("caging_vs_tip.png", png(caging_tip_figure(st1, st2, rep)))
-    write("best_designs.png", png(best_designs_figure(st1, st2, rep.best, log)))
+        write("parameter_usage.png", png(usage.pair_figure(st1, st2, rep.usage)))
+        write("manipulation.png", png(manipulation.pair_figure(st1, st2, rep)))
+    write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
+    write("best_designs.png", png(caging.pair_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
     finish()
     return rep

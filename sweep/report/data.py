@@ -7,17 +7,15 @@ import csv
 import io
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from .. import __version__
-from ..compute.maps import compute_map
-from ..model import Design, Grid, Part
 from ..outputs import write_bytes_atomic
 from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
-from ..storage.store import StoreError, read_store, scene_from_frozen
+from ..storage.h5 import StoreError
 
 
 DESIGN_DIMS = ("l1", "l2", "r1", "r2", "w")
@@ -120,26 +118,6 @@ class StoreData:
         return None if out.status == "not_refined" else out
 
 
-def open_store(path: Path) -> StoreData:
-    """Read a results store (ReportError / StoreError if it cannot be used)."""
-    import xarray as xr
-
-    view = read_store(path)                   # kind check, one-line StoreError otherwise
-    if "command" in view.dims:
-        raise ReportError(f"{path}: the report needs a store with one command "
-                          f"(this one has {view.coords['command'].size}); the paper's "
-                          "experiments use F_left = F_right = 1")
-    try:
-        with xr.open_dataset(path, engine="h5netcdf") as ds:
-            ds = ds.load()
-    except (OSError, ValueError) as exc:
-        raise ReportError(f"{path}: cannot read with xarray ({exc})") from None
-    scene = scene_from_frozen(view.frozen)
-    have = [v for v in MANIPULATION_VARIABLES if v in ds]
-    return StoreData(Path(path), ds, scene, view.attrs,
-                     manipulation=len(have) == len(MANIPULATION_VARIABLES))
-
-
 def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
     """Flat design indices of one part, best first: the refined ranking in a refined store
     (`sweep.storage.refined.ranking`), else by Lambda at TIE_DIGITS (store order among ties)."""
@@ -204,12 +182,6 @@ def md_table(rows: list[dict], columns: list[str], headers: list[str] | None = N
     return "\n".join(lines)
 
 
-def compute_best_map(st: StoreData, design: dict, ri: int, mi: int):
-    sc = st.scene
-    return compute_map(Design(**design), Part(r=float(st.r[ri]), mu=float(st.mu[mi])),
-                       sc.commands[0], Grid(h=sc.h), sc.limits, sc.accuracy, sc.effects)
-
-
 def design_text(d: dict) -> str:
     return (f"l1={d['l1']:g} l2={d['l2']:g} r1={d['r1']:g} r2={d['r2']:g} w={d['w']:g} "
             f"(R={fmt(d['r2'] / d['r1'])})")
@@ -266,3 +238,75 @@ def report_files(out_dir: Path, ident: dict, files: list[str]):
         files.append(name)
 
     return write, lambda: write_bytes_atomic(out_dir / MARKER, marker(True))
+
+
+# ---------------------------------------------------------------------------------------------
+# Two stores (the two-scene report)
+# ---------------------------------------------------------------------------------------------
+def crossing(st: StoreData) -> bool:
+    """The scene lets the fingers pass through each other (no finger_collision)."""
+    return "finger_collision" not in str(st.attrs.get("effects_on", "")).split()
+
+
+def scene_label(st: StoreData) -> str:
+    """What a store's scene is, from the effects it records (`effects_on`)."""
+    on = str(st.attrs.get("effects_on", "")).split()
+    label = ("fingers may cross (the paper's model)" if crossing(st)
+             else "fingers cannot cross (finger_collision)")
+    others = [e for e in on if e not in ("friction", "finger_collision")]
+    return label + ("; also " + ", ".join(others) if others else "")
+
+
+def scene_name(st: StoreData) -> str:
+    return str(st.attrs.get("name") or st.path.stem)
+
+
+def _values(st: StoreData, d: str) -> np.ndarray:
+    return np.asarray(st.ds[d].values, dtype=np.float64)
+
+
+def check_comparable(a: StoreData, b: StoreData) -> None:
+    """Refuse (ReportError, one line) two stores whose designs, parts, grid or command differ:
+    their scenes are compared point for point."""
+    def refuse(what: str, x, y):
+        raise ReportError(f"cannot compare {a.path} with {b.path}: their {what} differ "
+                          f"({x} against {y})")
+
+    for group, dims in (("designs", DESIGN_DIMS), ("parts", ("r", "mu"))):
+        for d in dims:
+            x, y = _values(a, d), _values(b, d)
+            if x.shape != y.shape or not np.array_equal(x, y):
+                refuse(group, f"{d} = {', '.join(fmt(v) for v in x)}",
+                       f"{d} = {', '.join(fmt(v) for v in y)}")
+    sa, sb = a.scene, b.scene
+    if (sa.h, sa.bounds) != (sb.h, sb.bounds):
+        refuse("grids", f"h = {fmt(sa.h)} ({sa.bounds})", f"h = {fmt(sb.h)} ({sb.bounds})")
+    ca, cb = sa.commands[0], sb.commands[0]
+    if (ca.f_left, ca.f_right) != (cb.f_left, cb.f_right):
+        refuse("commands", f"F = {fmt(ca.f_left)}/{fmt(ca.f_right)}",
+               f"F = {fmt(cb.f_left)}/{fmt(cb.f_right)}")
+    if a.manipulation != b.manipulation:
+        with_m, without = (a, b) if a.manipulation else (b, a)
+        raise ReportError(f"cannot compare {a.path} with {b.path}: {with_m.path} has the "
+                          f"manipulation metric and {without.path} not (config option outputs: "
+                          "{manipulation: true} in both, or in neither)")
+
+
+def short_scene(st: StoreData) -> str:
+    return "fingers may cross" if crossing(st) else "fingers cannot cross"
+
+
+@dataclass
+class Comparison:
+    """Tables of a two-scene report (rows of plain values), as written."""
+
+    best: list[dict]
+    caging_tip: list[dict]
+    caging_tip_summary: list[dict]
+    representatives: list[dict]
+    top_k: int | None = None
+    candidates: list[dict] = field(default_factory=list)
+    best_candidates: tuple = ()
+    manipulation: list[dict] = field(default_factory=list)
+    usage: list[dict] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)

@@ -7,8 +7,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.batch import scenario_a_pose_values
-from .data import CANDIDATE_DIMS, DESIGN_DIMS, StoreData, design_ranking, fmt, part_text, tie_key
-from .style import NOTE_UNITLESS
+from .data import (CANDIDATE_DIMS, Comparison, DESIGN_DIMS, StoreData, design_ranking, fmt,
+                   part_text, scene_name, short_scene, tie_key)
+from .style import NOTE_UNITLESS, SCENE_COLOURS
 
 
 def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
@@ -185,3 +186,79 @@ def reading(st: StoreData, rep) -> list[str]:
                + ", ".join(f"r = {fmt(k)}: {fmt(sum(v))}" for k, v in sorted(b_by_r.items()))
                + ".")
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Two scenes side by side (`compare.py`)
+# ---------------------------------------------------------------------------------------------
+def pair_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figure:
+    """Top: per part the four metrics (A and B under each scene, log scale); bottom: Scenario
+    B's per-pose values of one part under both scenes (one colour scale)."""
+    rows = rep.manipulation
+    fig = Figure(figsize=(17, 13), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subfigures(2, 1, height_ratios=[1, 1.1])
+    ax = top.subplots()
+    xs = np.arange(len(rows))
+    series = [("a_1", -0.3, SCENE_COLOURS[0], "//", f"A, {scene_name(st1)}"),
+              ("b_1", -0.1, SCENE_COLOURS[0], "", f"B, {scene_name(st1)}"),
+              ("a_2", 0.1, SCENE_COLOURS[1], "//", f"A, {scene_name(st2)}"),
+              ("b_2", 0.3, SCENE_COLOURS[1], "", f"B, {scene_name(st2)}")]
+    allv = np.array([row[k] for row in rows for k, *_ in series])
+    positive = allv[allv > 0]
+    floor = positive.min() / 3 if positive.size else 1e-3
+    for key, off, colour, hatch, label in series:
+        vals = np.array([row[key] for row in rows])
+        ax.bar(xs + off, np.where(vals > 0, vals, np.nan), width=0.2, color=colour,
+               hatch=hatch, edgecolor="white", label=label)
+    ax.set_yscale("log")
+    ax.set_ylim(floor, (positive.max() if positive.size else 1.0) * 5)
+    ax.set_xlim(-0.7, len(rows) - 0.3)
+    ax.set_xticks(xs, [f"r={row['r']:g}\nμ={row['mu']:g}\n{row['winner_1']} / "
+                       f"{row['winner_2']}" for row in rows], fontsize=8)
+    ax.set_xlabel("part (radius r, friction μ); the scenario with the larger metric under "
+                  f"{scene_name(st1)} / under {scene_name(st2)}")
+    ax.set_ylabel("manipulation metric (sum over poses of the inscribed radius;\nunitless, "
+                  "log scale, 0 not drawn)")
+    ax.legend(fontsize=9, ncol=2)
+    ax.grid(axis="y", alpha=0.3)
+    b1, b2 = rep.best_candidates
+    top.suptitle(f"In-hand manipulation per part, Scenario A (hatched; best candidate "
+                 f"{scene_name(st1)}: l1={b1['l1']:g} l2={b1['l2']:g} R={fmt(b1['R'])}; "
+                 f"{scene_name(st2)}: l1={b2['l1']:g} l2={b2['l2']:g} R={fmt(b2['R'])}) and "
+                 "Scenario B (solid), each scene in its colour", fontsize=11)
+    k = int(np.argmax([min(row["b_1"], row["b_2"]) for row in rows]))
+    row = rows[k]
+    ri = int(np.flatnonzero(st1.r == row["r"])[0])
+    mi = int(np.flatnonzero(st1.mu == row["mu"])[0])
+    h = st1.scene.h
+    maps = []
+    for st in (st1, st2):
+        pv = st.ds["manipulation_b_pose_value"].isel(r=ri, mu=mi)
+        maps.append((pv["pose_column"].values * h, row["r"] + pv["pose_row"].values * h,
+                     pv.values))
+    vmax = max(max(float(v.max()) for _, _, v in maps), 1e-12)
+    axs = bottom.subplots(1, 2, sharex=True, sharey=True)
+    mesh = None
+    for axp, st, (x, y, v), total in zip(axs, (st1, st2), maps, (row["b_1"], row["b_2"])):
+        mesh = axp.pcolormesh(lattice_edges(x, h), lattice_edges(y, h),
+                              np.ma.masked_where(v <= 0, v), cmap="magma_r", vmin=0.0,
+                              vmax=vmax, shading="flat")
+        axp.set_aspect("equal")
+        axp.set_facecolor("#eeeeee")
+        axp.set_xlabel("part centre x")
+        axp.set_title(f"{scene_name(st)} ({short_scene(st)}): Scenario B metric {fmt(total)}, "
+                      f"{int((v > 0).sum())} poses with a positive value", fontsize=10)
+    axs[0].set_ylabel("part centre y")
+    on = [(x[(v > 0).any(0)], y[(v > 0).any(1)]) for x, y, v in maps]
+    xs_on = np.concatenate([a for a, _ in on])
+    ys_on = np.concatenate([b for _, b in on])
+    if xs_on.size:
+        axs[0].set_xlim(xs_on.min() - 4 * h, xs_on.max() + 4 * h)
+        axs[0].set_ylim(min(0.0, ys_on.min() - 4 * h), ys_on.max() + 4 * h)
+    cb = bottom.colorbar(mesh, ax=list(axs), shrink=0.8, pad=0.01)
+    cb.set_label("pose value (inscribed radius of the force hull, unitless)", fontsize=9)
+    bottom.suptitle(f"Scenario B per pose for part r={row['r']:g}, μ={row['mu']:g} (the "
+                    "largest min over the two scenes), one colour scale; grey: value 0 or no "
+                    f"pose; {NOTE_UNITLESS}", fontsize=11)
+    return fig

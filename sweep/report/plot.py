@@ -30,7 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
-from ..compute.maps import kernel_records
+from ..compute.layout import kernel_records
 from ..kernels.records import Hand
 from ..kernels.streamline import max_streamline_steps, streamline_walk
 from ..kernels.trajectory import (

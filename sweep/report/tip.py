@@ -6,9 +6,10 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ..compute.maps import scene_map
+from .data import Comparison, DESIGN_DIMS, StoreData, design_text, fmt, scene_name, short_scene
 from .plot import draw_map_panel
-from .data import DESIGN_DIMS, StoreData, compute_best_map, design_text, fmt
-from .style import NOTE_UNITLESS, REPRESENTATIVE_COLOURS
+from .style import NOTE_UNITLESS, REPRESENTATIVE_COLOURS, SCENE_COLOURS
 
 
 def caging_tip_parts(st: StoreData) -> list[tuple[int, int]]:
@@ -107,7 +108,7 @@ def caging_tip_figure(st: StoreData, rep_rows: list[dict], log) -> Figure:
         ax.grid(alpha=0.3)
         for q, row in enumerate(mine):
             log(f"caging versus tip maps: part r = {r:g}, {row['kind']}")
-            m = compute_best_map(st, {d: row[d] for d in DESIGN_DIMS}, ri, mi)
+            m = scene_map(st.scene, {d: row[d] for d in DESIGN_DIMS}, st.r[ri], st.mu[mi])
             a = axes[p, q + 1]
             draw_map_panel(a, m, title=f"{row['kind']} (r={r:g}, μ={mu:g})\n"
                                        f"{design_text(row)}\ncaged {row['n_caged']}, tip "
@@ -147,3 +148,45 @@ def reading(st: StoreData, rep) -> list[str]:
             f"{fmt(reps['tip focused']['R'])} (caged {reps['tip focused']['n_caged']}, tip "
             f"{reps['tip focused']['n_tip_prehension']}).")
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Two scenes side by side (`compare.py`)
+# ---------------------------------------------------------------------------------------------
+def pair_figure(st1: StoreData, st2: StoreData, rep: Comparison) -> Figure:
+    """Per caging-versus-tip part, both scenes' designs on the same axes (caged versus
+    tip-prehension end points), with each scene's representative designs."""
+    parts = caging_tip_parts(st1)
+    fig = Figure(figsize=(16, 6.2 * len(parts) + 0.8), dpi=90, layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(len(parts), 2, squeeze=False, sharex="row", sharey="row")
+    markers = {"caging focused": "o", "tip focused": "D", "compromise": "s"}
+    for p, (ri, mi) in enumerate(parts):
+        r, mu = float(st1.r[ri]), float(st1.mu[mi])
+        for s, st in ((0, st1), (1, st2)):
+            ax = axes[p, s]
+            for s2, other in ((1 - s, (st2, st1)[s]), (s, st)):  # the other scene faint
+                caged = other.per_design("n_caged", ri, mi)
+                tip = other.per_design("n_tip_prehension", ri, mi)
+                ax.scatter(caged, tip, s=6 if s2 == s else 4, linewidths=0,
+                           color=SCENE_COLOURS[s2], alpha=0.7 if s2 == s else 0.12,
+                           label=f"{scene_name(other)} ({short_scene(other)}): {caged.size} designs"
+                           + ("" if s2 == s else " (faint)"))
+            for row in rep.representatives:
+                if row["scene"] == str(s + 1) and row["r"] == r and row["mu"] == mu:
+                    ax.scatter([row["n_caged"]], [row["n_tip_prehension"]], s=120,
+                               marker=markers[row["kind"]], facecolors="none",
+                               edgecolors=REPRESENTATIVE_COLOURS[row["kind"]], linewidths=2.2,
+                               zorder=5, label=f"{row['kind']}: l1={row['l1']:g} "
+                               f"l2={row['l2']:g} R={fmt(row['R'])} w={row['w']:g}")
+            ax.set_title(f"part r={r:g}, μ={mu:g}: {scene_name(st)} ({short_scene(st)})",
+                         fontsize=11)
+            ax.set_xlabel("grid points whose trajectory ends caged (n_caged)")
+            ax.set_ylabel("grid points ending in tip prehension (n_tip_prehension)")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=8, loc="best")
+    fig.suptitle("Caging versus tip prehension per design, smallest and largest part at the "
+                 "highest friction: each scene in its colour, the other scene faint behind it;\n"
+                 f"representative designs (rules in report.md) marked; {NOTE_UNITLESS}",
+                 fontsize=11)
+    return fig

@@ -6,7 +6,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .data import PARAMETERS, StoreData, fmt, part_text
+from .data import PARAMETERS, StoreData, fmt, part_text, scene_name, short_scene
 
 
 def usage_rows(st: StoreData) -> list[dict]:
@@ -73,3 +73,28 @@ def reading(st: StoreData, rep) -> list[str]:
                    "(usage NaN): " + "; ".join(part_text(rep.usage[i])
                                                 for i in np.flatnonzero(~ok)) + ".")
     return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Two scenes side by side (`compare.py`)
+# ---------------------------------------------------------------------------------------------
+def pair_figure(st1: StoreData, st2: StoreData, rows: list[dict]) -> Figure:
+    """Scenario B's parameter usage per part, the two scenes side by side, one colour scale."""
+    fig = Figure(figsize=(13, 0.42 * len(rows) + 2.4), dpi=100, layout="constrained")
+    FigureCanvasAgg(fig)
+    axs = fig.subplots(1, 2, sharey=True)
+    im = None
+    for ax, tag, st in zip(axs, ("1", "2"), (st1, st2)):
+        vals = np.array([[row[f"{p}_{tag}"] for p in PARAMETERS] for row in rows])
+        im = draw_usage(ax, vals, "none")
+        ax.set_title(f"{scene_name(st)} ({short_scene(st)})", fontsize=10)
+        ax.set_xlabel("design parameter")
+    axs[0].set_yticks(range(len(rows)), [f"r={row['r']:g}, μ={row['mu']:g}" for row in rows],
+                      fontsize=8)
+    axs[0].set_ylabel("part (radius r, friction μ)")
+    cb = fig.colorbar(im, ax=list(axs), pad=0.02)
+    cb.set_label("usage: spread among hull-vertex geometries / search range (unitless, 0..1)",
+                 fontsize=8)
+    fig.suptitle("Scenario B parameter usage per part in both scenes ('none': no pose with a "
+                 "positive value)", fontsize=11)
+    return fig

@@ -35,11 +35,10 @@ then renamed); a rerun with the same config and sample skips them.
 from __future__ import annotations
 
 import hashlib
-import itertools
 import json
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +48,9 @@ from ..model import TRAJECTORY_METHODS, Accuracy, ModelInputError
 from ..outputs import write_bytes_atomic
 from ..config.scene import Scene
 from ..schema import SUMMARY_FIELDS
+from ..storage.refined import ROLE
+from .study import (CELL_AXES, MIN_SAVING, REFERENCE_STEP, REFERENCE_TOL, Setting, Study,  # noqa: F401
+                    design_cells, parts)
 
 CAGING_AREA = SUMMARY_FIELDS.index("caging_area")
 # Summary columns the convergence study keeps per map.
@@ -61,34 +63,6 @@ DEFAULT_SAMPLE = 24
 HALTON_BASES = (2, 3, 5, 7)
 RECONFIG_LADDER = (0.2, 0.1, 0.05, 0.02, 0.01, 0.005, 0.002)
 ROOT_TOL_LADDER = (1e-3, 1e-6, 1e-9, 1e-12)
-REFERENCE_STEP, REFERENCE_TOL = 0.002, 1e-12
-# A setting replaces the config's own only when measured this much cheaper: timings of one
-# setting vary by about 10% from run to run on a shared machine (docs/performance.md).
-MIN_SAVING = 0.10
-CELL_AXES = ("l1", "l2", "r1", "r2")
-
-
-@dataclass(frozen=True)
-class Setting:
-    """One rung of the ladder: the axis it varies and the full accuracy it runs at."""
-
-    axis: str          # "h", "reconfig_step", "root_tol", "trajectory", "reference" or
-    #                    "reference/2" (the reference's settings one halving coarser)
-    h: float
-    accuracy: Accuracy
-
-    @property
-    def key(self) -> str:
-        a = self.accuracy
-        return (f"h{self.h:.6g}_s{a.reconfig_step:.6g}_t{a.root_tol:.3g}_{a.trajectory}")
-
-    @property
-    def label(self) -> str:
-        a = self.accuracy
-        return {"h": f"h = {self.h:g}", "reconfig_step": f"reconfig_step = {a.reconfig_step:g}",
-                "root_tol": f"root_tol = {a.root_tol:g}", "trajectory": a.trajectory,
-                "reference": f"reference (h = {self.h:g})",
-                "reference/2": f"reference at h = {self.h:g}"}[self.axis]
 
 
 def halton(index: int, base: int) -> float:
@@ -131,16 +105,6 @@ def is_default(setting: Setting, scene: Scene) -> bool:
 # ---------------------------------------------------------------------------------------------
 # Maps of a set of cells at one setting
 # ---------------------------------------------------------------------------------------------
-def design_cells(scene: Scene) -> np.ndarray:
-    """Every (l1, l2, r1, r2) of the config, in config order: float64 (n, 4)."""
-    return np.array(list(itertools.product(*(scene.values[a] for a in CELL_AXES))),
-                    dtype=np.float64).reshape(-1, 4)
-
-
-def parts(scene: Scene) -> list[tuple[float, float, int]]:
-    """Every part (r, mu) under every command, in config order."""
-    return [(r, mu, c) for r in scene.values["r"] for mu in scene.values["mu"]
-            for c in range(len(scene.commands))]
 
 
 def caging_areas(scene: Scene, cells4: np.ndarray, h: float, accuracy: Accuracy) -> np.ndarray:
@@ -258,23 +222,6 @@ def metrics(areas: np.ndarray, reference: np.ndarray) -> dict:
 # ---------------------------------------------------------------------------------------------
 # The study
 # ---------------------------------------------------------------------------------------------
-@dataclass
-class Study:
-    scene: Scene
-    n_sample: int
-    sample: np.ndarray          # indices into design_cells
-    n_maps_sample: int
-    rows: list                  # one dict per setting (the ladder, then the references)
-    reference: Setting
-    recommended: dict
-    seconds_default_sweep: float
-    seconds_steps: float        # compute time of every step, summed from the work files
-    best: list                  # per part: (part, best design at config / recommended / reference)
-    convergence: list = field(default_factory=list)  # one dict per (method, h): sample sums
-    witnesses: list = field(default_factory=list)    # one dict per (witness map, method, h)
-    n_maps_convergence: int = 0
-    refinement: list = field(default_factory=list)   # per part: the refined answer vs reference
-    refinement_cost: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -399,8 +346,14 @@ def run_convergence(scene: Scene, groups: list, work: Path, progress=None) -> tu
     return rows, wit_rows
 
 
-def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=()) -> Study:
-    """Run (or resume) the study; `progress(done, total, label)` is told after each step."""
+def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=(),
+              refine_designs=None) -> Study:
+    """Run (or resume) the study; `progress(done, total, label)` is told after each step.
+    `refine_designs` is the refinement stage (`sweep.runs.refine.refine_designs`), which a
+    config with `refine:` needs; the caller passes it, so that the orchestration modules stay
+    siblings that do not import each other (tests/test_layers.py)."""
+    if scene.refine is not None and refine_designs is None:
+        raise TypeError("run_study: a config with refine: needs refine_designs")
     check_sample(n_sample)
     work.mkdir(parents=True, exist_ok=True)
     settings, _ = ladder(scene)
@@ -459,7 +412,7 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
         config_rung = results[Setting("h", scene.h, scene.accuracy).key]
         refined, refine_cost = refined_against_reference(
             scene, cells4, config_rung, results[reference.key]["caging_area"],
-            work / f"refine-{default.key}-{sampled}")
+            work / f"refine-{default.key}-{sampled}", refine_designs)
         tell("refinement of the sample")
     seconds = float(full["seconds"]) + sum(float(v["seconds"]) for v in results.values())
     seconds += sum(r["seconds_per_map"] for r in convergence) * sum(len(g[1]) for g in groups)
@@ -470,13 +423,12 @@ def run_study(scene: Scene, n_sample: int, work: Path, progress=None, witnesses=
 
 
 def refined_against_reference(scene: Scene, cells4: np.ndarray, screening: dict,
-                              reference: np.ndarray, work: Path) -> tuple[list, dict]:
+                              reference: np.ndarray, work: Path,
+                              refine_designs) -> tuple[list, dict]:
     """The config's refinement stage (`refine:`) run on the sample's designs from the config's
     own screening of them, and its answer per part against the reference's best: *agrees*
     (certified, and the reference's best), *contains* (a near-tie set that holds it), or
     *differs*. Cost: the sample's screening and each refinement level, in seconds."""
-    from .refine import ROLE, refine_designs
-
     designs = np.array([[*c, w] for c in cells4 for w in scene.widths], dtype=np.float64)
     n_parts = len(parts(scene))
     screened = screening["caging_area"].reshape(-1, n_parts)

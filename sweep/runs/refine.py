@@ -61,9 +61,10 @@ import numpy as np
 
 from .. import __version__
 from ..compute import batch
+from ..compute.batch import numba_threads
 from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
-from .runner import numba_threads
+
 from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
 from ..schema import SUMMARY_INDEX
 from ..storage.refined import ROLE, STATUS, equal_r_classes

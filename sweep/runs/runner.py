@@ -23,6 +23,7 @@ import numpy as np
 
 from .. import __version__, grid
 from ..compute import batch, maps
+from ..compute.batch import numba_threads
 from ..storage import mapfile
 from ..config.chunks import chunk_ranges, missing_ranges, sub_ranges
 from ..model import Design, Grid, Part
@@ -93,24 +94,6 @@ def resolve_threads(threads: int | None, environ=None) -> int | None:
             raise RunError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
                            f"(this machine's cores), got {threads}")
     return threads
-
-
-@contextlib.contextmanager
-def numba_threads(n: int | None):
-    """Set Numba's thread count for the block (None: leave Numba's default, every core), restore
-    it after. Per-thread buffers in the kernels are sized by `numba.get_num_threads()`."""
-    import numba
-
-    old = numba.get_num_threads()
-    if n is not None:
-        if not 1 <= n <= numba.config.NUMBA_NUM_THREADS:
-            raise RunError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
-                           f"(this machine's cores), got {n}")
-        numba.set_num_threads(n)
-    try:
-        yield numba.get_num_threads()
-    finally:
-        numba.set_num_threads(old)
 
 
 def check_run_memory(scene: Scene, threads: int | None) -> None:

@@ -24,6 +24,14 @@ from .. import __version__
 from ..outputs import make_parent, write_bytes_atomic
 
 
+class StoreError(Exception):
+    """A file or directory that is not what an operation needs (CLI exit code 2)."""
+
+
+class CorruptFile(StoreError):
+    """A file with a final name that cannot be read as a complete block/store."""
+
+
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike, mode: str = "w"):
     """Yield an h5py.File built in memory; write it to `path` atomically only if the block

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from .h5 import atomic_file, provenance, set_root_attrs, write_coordinate, write_variable
-from ..compute.maps import EnergyMap
+from ..compute.layout import EnergyMap
 from ..model import DEFAULT_OUTPUTS, FINGER_NAMES, effect_attributes
 from ..schema import POINT_FIELDS
 

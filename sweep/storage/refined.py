@@ -9,8 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config.scene import DESIGN_KEYS
-from ..schema import REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS
+from ..schema import DESIGN_KEYS, REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS
 
 ROLE = {name: code for code, name in enumerate(REFINE_ROLE_MEANINGS)}
 STATUS = {name: code for code, name in enumerate(REFINE_STATUS_MEANINGS)}

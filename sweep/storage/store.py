@@ -29,7 +29,8 @@ import numpy as np
 from .. import __version__
 from ..grid import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from ..config.chunks import Range, exact_cover
-from .h5 import (atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
+from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store)
+                 atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
 from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
 from ..config.parse import scene_from_dict
@@ -58,14 +59,6 @@ COORD_ATTRS = {
 
 GRID_NOTE = ("each map uses its own design's whole-reach grid (MODEL 8): x = i h, y = r + j h; "
              "its edge is unreached, so trajectories never leave through a window edge")
-
-
-class StoreError(Exception):
-    """A file or directory that is not what an operation needs (CLI exit code 2)."""
-
-
-class CorruptFile(StoreError):
-    """A file with a final name that cannot be read as a complete block/store."""
 
 
 # ---------------------------------------------------------------------------------------------
