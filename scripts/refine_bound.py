@@ -31,7 +31,8 @@ from sweep.runs.refine import (
     separate,
 )
 from sweep.config.scene import RefineSettings, grid_points
-from sweep.storage.store import read_store, scene_from_frozen
+from sweep.config.parse import scene_from_frozen
+from sweep.storage.store import read_store
 
 
 def main(argv=None) -> None:

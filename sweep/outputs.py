@@ -33,6 +33,15 @@ import sys
 import time
 from pathlib import Path
 
+
+class StoreError(Exception):
+    """A file or directory that is not what an operation needs (CLI exit code 2)."""
+
+
+class CorruptFile(StoreError):
+    """A file with a final name that cannot be read as a complete block/store."""
+
+
 HOST = socket.gethostname()
 TMP_TAG = ".tmp."
 LOCK_SUFFIX = ".lock"

@@ -13,11 +13,11 @@ from sweep.schema import EFFECT_SUMMARY
 from sweep.config.chunks import chunk_ranges
 from sweep.model import Command
 from sweep.config.scene import STORE_DIMS
-from sweep.config.parse import scene_from_dict
+from sweep.config.parse import scene_from_dict, scene_from_frozen
 from sweep.runs.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
 from sweep.storage.store import (
     KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_block, read_store,
-    scene_from_frozen, store_arrays, write_block, write_store,
+    store_arrays, write_block, write_store,
 )
 from sweep_cases import fake_summaries, tiny
 

@@ -273,7 +273,7 @@ def _describe_map_file(path: Path) -> list[str] | None:
 
 def _n_items(b) -> str:
     try:
-        from ..storage.store import scene_from_frozen
+        from ..config.parse import scene_from_frozen
 
         return f"{scene_from_frozen(b.frozen).n_items:,}"
     except Exception:  # noqa: BLE001 - display only

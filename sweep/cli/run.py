@@ -177,7 +177,8 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
 
     from ..runs import runner
     from ..config.scene import RefineSettings
-    from ..storage.store import read_store, scene_from_frozen
+    from ..config.parse import scene_from_frozen
+    from ..storage.store import read_store
 
     threads = runner.resolve_threads(threads)
     scene = scene_from_frozen(read_store(store).frozen)

@@ -15,6 +15,7 @@ from pathlib import Path
 import yaml
 
 from ..grid import cell_bytes, cell_extent
+from ..outputs import StoreError
 from ..model import (EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE,
                      TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
                      ModelInputError, Outputs, Part, validate_inputs)
@@ -468,3 +469,13 @@ def _short(vals) -> str:
 
 def _jsonable(obj):
     return json.loads(json.dumps(obj, default=str))
+
+
+def scene_from_frozen(frozen: dict) -> Scene:
+    """Rebuild the Scene recorded in a file (from the config as written)."""
+    scene = scene_from_dict(frozen["source"], default_name=frozen.get("name", "sweep"))
+    if scene.config_hash != frozen["config_hash"]:
+        raise StoreError("recorded config does not reproduce its hash "
+                         f"({scene.config_hash[:12]} != {frozen['config_hash'][:12]}); "
+                         "written by another sweep version?")
+    return scene

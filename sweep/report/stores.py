@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..storage.store import read_store, scene_from_frozen
+from ..config.parse import scene_from_frozen
+from ..storage.store import read_store
 from .data import MANIPULATION_VARIABLES, ReportError, StoreData, check_comparable, resolve_top_k
 
 

@@ -68,7 +68,8 @@ from .rundir import read_json, refine_dir
 from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
 from ..schema import SUMMARY_INDEX
 from ..storage.refined import ROLE, STATUS, equal_r_classes
-from ..storage.store import StoreError, add_refinement, read_store, scene_from_frozen
+from ..config.parse import scene_from_frozen
+from ..storage.store import StoreError, add_refinement, read_store
 
 CAGING_AREA = SUMMARY_INDEX["caging_area"]
 #: Grid points per work file (the maps of a level, whole cells): a few seconds of compute on two
@@ -498,9 +499,9 @@ def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
 
 
 def _run_level(scene, designs, parts, keys, h, label, work, progress):
-    """The maps `keys` of a level (`label`: "1a", "1b", "2a", "2b", ...): finished batches loaded, the
-    rest computed and saved. Returns ({(part, design): caging area}, compute seconds of every
-    batch, maps computed now)."""
+    """The maps `keys` of a level (`label`: "1a", "1b", "2a", "2b", ...): finished batches
+    loaded, the rest computed and saved. Returns ({(part, design): caging area}, compute
+    seconds of every batch, maps computed now)."""
     if not keys.shape[0]:
         return {}, 0.0, 0
     batches = level_batches(scene, designs, parts, keys, h)

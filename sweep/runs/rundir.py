@@ -30,10 +30,11 @@ from ..grid import available_memory
 from ..outputs import (
     OutputLock, claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic,
 )
+from ..config.parse import scene_from_frozen
 from ..config.scene import Scene
 from ..storage.store import (
     KIND_SHARD, Block, CorruptFile, StoreError, assemble, assemble_manipulation, first_line,
-    read_block, scene_from_frozen, write_store,
+    read_block, write_store,
 )
 
 

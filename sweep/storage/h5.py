@@ -21,15 +21,8 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..outputs import make_parent, write_bytes_atomic
-
-
-class StoreError(Exception):
-    """A file or directory that is not what an operation needs (CLI exit code 2)."""
-
-
-class CorruptFile(StoreError):
-    """A file with a final name that cannot be read as a complete block/store."""
+from ..outputs import (CorruptFile, StoreError,  # noqa: F401 (the errors of stored files)
+                       make_parent, write_bytes_atomic)
 
 
 @contextlib.contextmanager

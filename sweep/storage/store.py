@@ -33,7 +33,6 @@ from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store
                  atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
                  write_coordinate, write_variable)
 from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
-from ..config.parse import scene_from_dict
 from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene
 from ..model import DEFAULT_OUTPUTS
 from ..schema import (
@@ -310,16 +309,6 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
                         "contender exceeds the change between the last two levels of both "
                         "(docs/sweeps.md)",
             **attrs))
-
-
-def scene_from_frozen(frozen: dict) -> Scene:
-    """Rebuild the Scene recorded in a file (from the config as written)."""
-    scene = scene_from_dict(frozen["source"], default_name=frozen.get("name", "sweep"))
-    if scene.config_hash != frozen["config_hash"]:
-        raise StoreError("recorded config does not reproduce its hash "
-                         f"({scene.config_hash[:12]} != {frozen['config_hash'][:12]}); "
-                         "written by another sweep version?")
-    return scene
 
 
 def read_manipulation(path: Path) -> ManipulationChunk:
