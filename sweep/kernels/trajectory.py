@@ -38,7 +38,8 @@ from ..model import (
     TRAJECTORY_GRID8,
     TRAJECTORY_SLIDING,
 )
-from .point import point_outcome
+from .collision import slide_context
+from .point import point_outcome_below
 from .streamline import streamline_ends
 
 # The 8 neighbours in the order that breaks ties (MODEL 8): E, NE, N, NW, W, SW, S, SE.
@@ -96,12 +97,13 @@ class OutcomeMemo(NamedTuple):
     is symmetric (`mirror`: equal tensions; the model is then exactly mirror-symmetric,
     point_outcome(-x, y) = point_outcome(x, y) bit for bit, model-notes D24), else of (x, y).
     A hit returns the bits a new evaluation would, so the slides are the same with or without
-    it. Where most slides come in mirror pairs (the map is symmetric) the second of a pair is
+    it. An entry may hold a lower bound of the energy (`point.point_outcome_below`), which
+    answers a later search only if it is above that search's bound. Where most slides come in mirror pairs (the map is symmetric) the second of a pair is
     all hits, and the cascade's thorough search at radius h reads the step search's 8
     directions at the same centre."""
 
     keys: np.ndarray      # (capacity, 2) int64: key bits, EMPTY_KEY where free
-    values: np.ndarray    # (capacity, 2) float64: class, energy
+    values: np.ndarray    # (capacity, 3) float64: class, energy, 1 if exact (0: a lower bound)
     bits: np.ndarray      # 2 float64 scratch: the key being looked up ...
     key: np.ndarray       # ... and the same memory as int64
     fill: np.ndarray      # 1 int64: entries in use
@@ -117,7 +119,7 @@ def new_memo(capacity, mirror):
     """An empty OutcomeMemo of `capacity` entries (a power of two)."""
     bits = np.empty(2)
     return OutcomeMemo(np.full((capacity, 2), EMPTY_KEY, dtype=np.int64),
-                       np.empty((capacity, 2)), bits, bits.view(np.int64),
+                       np.empty((capacity, 3)), bits, bits.view(np.int64),
                        np.zeros(1, dtype=np.int64), mirror)
 
 
@@ -134,7 +136,7 @@ def memo_for_slide(memo):
     for s in range(capacity):
         if memo.keys[s, 0] != EMPTY_KEY:
             memo_store(bigger, memo.keys[s, 0], memo.keys[s, 1], memo.values[s, 0],
-                       memo.values[s, 1])
+                       memo.values[s, 1], memo.values[s, 2])
     return bigger
 
 
@@ -152,34 +154,41 @@ def memo_slot(memo, k0, k1):
 
 
 @njit(cache=True)
-def memo_store(memo, k0, k1, c, e):
-    """Enter an outcome (no-op where the memo is half full: it is then only read)."""
-    if 2 * (memo.fill[0] + 1) > memo.keys.shape[0]:
-        return
+def memo_store(memo, k0, k1, c, e, exact):
+    """Enter an outcome, or replace a lower bound by the exact one (no new entry where the
+    memo is half full: it is then only read)."""
     s = memo_slot(memo, k0, k1)
     if memo.keys[s, 0] == EMPTY_KEY:
+        if 2 * (memo.fill[0] + 1) > memo.keys.shape[0]:
+            return
         memo.keys[s, 0] = k0
         memo.keys[s, 1] = k1
-        memo.values[s, 0] = c
-        memo.values[s, 1] = e
         memo.fill[0] += 1
+    memo.values[s, 0] = c
+    memo.values[s, 1] = e
+    memo.values[s, 2] = exact
 
 
 @njit(cache=True)
-def outcome_at(x, y, finger, solver, effects, hand, memo):
-    """point_outcome(x, y, ...), read from the memo where it holds the position (or its
-    mirror image, for a symmetric hand); `memo` None: always evaluated."""
+def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
+    """(class, energy) at world (x, y) for a search that only asks whether the energy is
+    below `bound` (+inf: the exact outcome): point.point_outcome_below, read from the memo
+    where it holds the position (or its mirror image, for a symmetric hand) well enough.
+    The energy is exact, or a lower bound above `bound`; the search compares it with `bound`
+    only (`e < best`), so its decisions are those of the exact energies. `memo` None: always
+    evaluated; `context`: collision.slide_context or None."""
     if memo is None:
-        return point_outcome(x, y, finger, solver, effects, hand)
+        c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+        return c, e
     memo.bits[0] = abs(x) if memo.mirror else x
     memo.bits[1] = y
     k0 = memo.key[0]
     k1 = memo.key[1]
     s = memo_slot(memo, k0, k1)
-    if memo.keys[s, 0] != EMPTY_KEY:
+    if memo.keys[s, 0] != EMPTY_KEY and (memo.values[s, 2] != 0.0 or memo.values[s, 1] > bound):
         return int(memo.values[s, 0]), memo.values[s, 1]
-    c, e = point_outcome(x, y, finger, solver, effects, hand)
-    memo_store(memo, k0, k1, c, e)
+    c, e, exact = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+    memo_store(memo, k0, k1, c, e, 1.0 if exact else 0.0)
     return c, e
 
 
@@ -208,7 +217,7 @@ def downhill_neighbour(energy, point_class, i, j, h):
 
 @njit(cache=True)
 def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand,
-                     memo=None):
+                     memo=None, context=None):
     """(energy, class, unit direction ux, uy) of the lowest point found on the circle of radius
     rho around world (x, y) (the search of the module's SLIDE_* constants; `thorough` for the
     stall decision). Ties go to the first evaluated: directions counter-clockwise from E, then
@@ -219,22 +228,24 @@ def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand
     ux = 0.0
     uy = 0.0
     for n in range(0, SLIDE_DIRECTIONS, stride):
-        c, e = outcome_at(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n], finger, solver,
-                          effects, hand, memo)
+        # the thorough search keeps every direction's energy (its local minima): exact
+        c, e = outcome_at(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n],
+                          np.inf if thorough else best, finger, solver, effects, hand, memo,
+                          context)
         scratch[n] = e
         if e < best:
             best, best_class, ux, uy = e, c, SLIDE_DX[n], SLIDE_DY[n]
     half = math.pi * stride / SLIDE_DIRECTIONS
     if not thorough:
         return refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver,
-                                effects, hand, memo)
+                                effects, hand, memo, context)
     for n in range(SLIDE_DIRECTIONS):  # refine around every local minimum of the circle
         e = scratch[n]
         if not (e <= scratch[n - 1] and e <= scratch[(n + 1) % SLIDE_DIRECTIONS]) \
                 or not math.isfinite(e):
             continue
         e, c, vx, vy = refine_on_circle(x, y, rho, e, INFEASIBLE, SLIDE_DX[n], SLIDE_DY[n],
-                                        half, finger, solver, effects, hand, memo)
+                                        half, finger, solver, effects, hand, memo, context)
         if e < best:
             best, best_class, ux, uy = e, c, vx, vy
     return best, best_class, ux, uy
@@ -242,7 +253,7 @@ def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand
 
 @njit(cache=True)
 def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand,
-                     memo=None):
+                     memo=None, context=None):
     """SLIDE_REFINE times: the directions `half` either side of (ux, uy) (counter-clockwise
     first), the lower replacing it; `half` halves each time."""
     for _ in range(SLIDE_REFINE):
@@ -253,7 +264,8 @@ def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, 
             s = sd if side == 0 else -sd
             vx = cx * cd - cy * s
             vy = cy * cd + cx * s
-            c, e = outcome_at(x + rho * vx, y + rho * vy, finger, solver, effects, hand, memo)
+            c, e = outcome_at(x + rho * vx, y + rho * vy, best, finger, solver, effects, hand,
+                              memo, context)
             if e < best:
                 best, best_class, ux, uy = e, c, vx, vy
         half *= 0.5
@@ -271,13 +283,14 @@ def nearest_grid_point(x, y, xs, ys, h):
 
 @njit(cache=True)
 def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, solver, effects,
-                    hand, path, memo=None):
+                    hand, path, memo=None, context=None):
     """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
     energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
     points written to `path`): the grid point where the slide rejoins the grid (lower than the
     start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`
     is None, or an array (n, 2) that receives the world positions of the slide (pictures,
-    tests); `memo`: the map's OutcomeMemo, or None."""
+    tests); `memo`: the map's OutcomeMemo, or None; `context`: the map's
+    collision.slide_context, or None."""
     ny, nx = energy.shape
     h = hand.h
     e_start = energy[j0, i0]
@@ -290,7 +303,7 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     for _ in range(max_slide_points(ny, nx) - 1):
         rho = h * SLIDE_CASCADE_RADIUS[stage]
         e, c, ux, uy = lowest_on_circle(x, y, rho, SLIDE_CASCADE_THOROUGH[stage], scratch,
-                                        finger, solver, effects, hand, memo)
+                                        finger, solver, effects, hand, memo, context)
         if not (e < e_here - SLIDE_REL * abs(e_here)):
             stage += 1
             if stage == len(SLIDE_CASCADE_RADIUS):
@@ -357,6 +370,7 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
         end_state.flat[p] = END_NONE
         end_index.flat[p] = -1
     memo = new_memo(1, hand.f_left == hand.f_right)  # grown at the first slide
+    context = slide_context(finger, hand.w, effects.finger_collision)
     for p0 in range(size):
         j0 = p0 // nx
         i0 = p0 - j0 * nx
@@ -391,7 +405,8 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                     break
                 memo = memo_for_slide(memo)
                 q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
-                                             finger, solver, effects, hand, None, memo)
+                                             finger, solver, effects, hand, None, memo,
+                                             context)
                 if kind != SLIDE_REJOINS:
                     state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
                     last = q
