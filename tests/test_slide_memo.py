@@ -1,6 +1,6 @@
-"""The slides' shortcuts (model-notes D24) change no slide: the memo of outcomes per map (with
-mirror images), the bound below which a search needs an energy, and the meeting found as on
-the grid.
+"""The slides' shortcuts (model-notes D16, "Cost") change no slide: the memo of outcomes per
+map (with mirror images), the bound below which a search needs an energy, and the meeting
+found as on the grid.
 
 The reference is D16's rule as tests/naive.py writes it (`ReferenceGrid`: the cascade, the
 searches, the rejoin), run on a kernel map's grid values with the model off the grid asked of

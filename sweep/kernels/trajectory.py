@@ -19,7 +19,7 @@ Three methods, an accuracy setting (`SolverSettings.trajectory`, model-notes D16
 A point's end is its successor's end, so shared paths are walked once; energies fall strictly
 along every path (grid steps and slides alike), so no path returns to a point. The slides of a
 map share one memo of the model's outcomes (`OutcomeMemo`): a position evaluated before, or the
-mirror image in x of one, is read rather than solved again (model-notes D24).
+mirror image in x of one, is read rather than solved again (model-notes D16, "Cost").
 """
 import math
 from typing import NamedTuple
@@ -95,11 +95,12 @@ class OutcomeMemo(NamedTuple):
     """The outcomes (`point.point_outcome`) the slides of one map have asked for, by position:
     an open-addressing hash table (linear probing) keyed by the bits of (|x|, y) where the hand
     is symmetric (`mirror`: equal tensions; the model is then exactly mirror-symmetric,
-    point_outcome(-x, y) = point_outcome(x, y) bit for bit, model-notes D24), else of (x, y).
-    A hit returns the bits a new evaluation would, so the slides are the same with or without
-    it. An entry may hold a lower bound of the energy (`point.point_outcome_below`), which
-    answers a later search only if it is above that search's bound. Where most slides come in mirror pairs (the map is symmetric) the second of a pair is
-    all hits, and the cascade's thorough search at radius h reads the step search's 8
+    point_outcome(-x, y) = point_outcome(x, y) bit for bit, tests/test_slide_memo.py), else
+    of (x, y). A hit returns the bits a new evaluation would, so the slides are the same with
+    or without it. An entry may hold a lower bound of the energy
+    (`point.point_outcome_below`), which answers a later search only if it is above that
+    search's bound. Where slides come in mirror pairs (a symmetric map) the second of a pair
+    is all hits, and the cascade's thorough search at radius h reads the step search's 8
     directions at the same centre."""
 
     keys: np.ndarray      # (capacity, 2) int64: key bits, EMPTY_KEY where free
