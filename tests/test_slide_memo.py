@@ -23,8 +23,8 @@ from sweep.compute.maps import compute_map, kernel_records
 from sweep.kernels.collision import collide, collide_near, slide_context
 from sweep.kernels.point import point_outcome, point_outcome_below
 from sweep.kernels.records import Hand
-from sweep.kernels.trajectory import (EMPTY_KEY, MEMO_MIN_CAPACITY, memo_for_slide, new_memo,
-                                      outcome_at)
+from sweep.kernels.trajectory import (EMPTY_KEY, MEMO_MAX_CAPACITY, MEMO_MIN_CAPACITY,
+                                      memo_for_slide, new_memo, outcome_at)
 from sweep.model import (END_NONE, FREE, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX,
                          Accuracy, Command, Design, Effects, Grid, Limits, Part)
 
@@ -226,3 +226,10 @@ def test_memo_reads_what_it_stored_and_keeps_it_when_it_grows():
         new = {tuple(bigger.keys[k]): tuple(bigger.values[k]) for k in np.flatnonzero(
             bigger.keys[:, 0] != EMPTY_KEY)}
         assert old == new
+    full = new_memo(MEMO_MAX_CAPACITY, True)
+    full.fill[0] = MEMO_MAX_CAPACITY // 2  # the largest memo, half full: kept, and only read
+    assert memo_for_slide(full).keys.shape[0] == MEMO_MAX_CAPACITY
+    x, y = 0.41, 1.73
+    assert outcome_at(x, y, math.inf, finger, solver, blocks, hand, full, None)[1] == \
+        point_outcome(x, y, finger, solver, blocks, hand)[1]
+    assert full.fill[0] == MEMO_MAX_CAPACITY // 2 and np.all(full.keys[:, 0] == EMPTY_KEY)

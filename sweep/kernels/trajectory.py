@@ -112,7 +112,10 @@ class OutcomeMemo(NamedTuple):
 
 
 EMPTY_KEY = -1       # no position has these bits (a NaN)
-MEMO_MIN_CAPACITY = 4096  # entries (32 bytes each), allocated at a map's first slide
+MEMO_MIN_CAPACITY = 4096  # entries (40 bytes each), allocated at a map's first slide
+# Bound on a map's memo: 10.5 MB per map being computed (a thread's), about 130,000 positions
+# (a map of the 1,200 at h = 0.05 asks for 1,000-6,000); a full memo is still read.
+MEMO_MAX_CAPACITY = 1 << 18
 
 
 @njit(cache=True)
@@ -128,12 +131,13 @@ def new_memo(capacity, mirror):
 def memo_for_slide(memo):
     """The memo to give the next slide: the same, or (before the first slide of the map, and
     once it is a quarter full, so that a slide finds room) a larger copy of it. Allocation
-    happens here, between slides, and the capacity grows fourfold: amortised over the
-    evaluations, which cost microseconds each."""
+    happens here, between slides, and the capacity grows fourfold, up to MEMO_MAX_CAPACITY:
+    amortised over the evaluations, which cost microseconds each."""
     capacity = memo.keys.shape[0]
-    if capacity >= MEMO_MIN_CAPACITY and 4 * memo.fill[0] <= capacity:
+    if capacity >= MEMO_MIN_CAPACITY and (4 * memo.fill[0] <= capacity
+                                          or capacity >= MEMO_MAX_CAPACITY):
         return memo
-    bigger = new_memo(max(MEMO_MIN_CAPACITY, 4 * capacity), memo.mirror)
+    bigger = new_memo(min(max(MEMO_MIN_CAPACITY, 4 * capacity), MEMO_MAX_CAPACITY), memo.mirror)
     for s in range(capacity):
         if memo.keys[s, 0] != EMPTY_KEY:
             memo_store(bigger, memo.keys[s, 0], memo.keys[s, 1], memo.values[s, 0],
