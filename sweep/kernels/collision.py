@@ -890,13 +890,65 @@ def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, 
     if mode_l < 0 or mode_r < 0:  # the part overlaps a finger's joint: infeasible
         return False, left, right
     work = np.empty(WORK_SIZE)
-    p = meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work)
+    return stopped_pair(meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work), finger,
+                        left, right)
+
+
+@njit(cache=True)
+def stopped_pair(p, finger, left, right):
+    """(changed, left, right) of both fingers, each (mode, t1, t2, k1, k2), stopped at the
+    meeting p (-1: they do not meet, unchanged)."""
     if p < 0.0:
         return False, left, right
     th = finger.theta2_min
-    cl, ml, a1l, a2l, b1l, b2l = stopped_finger(p, mode_l, t1l, t2l, k1l, k2l, th)
-    cr, mr, a1r, a2r, b1r, b2r = stopped_finger(p, mode_r, t1r, t2r, k1r, k2r, th)
+    cl, ml, a1l, a2l, b1l, b2l = stopped_finger(p, left[0], left[1], left[2], left[3], left[4],
+                                                th)
+    cr, mr, a1r, a2r, b1r, b2r = stopped_finger(p, right[0], right[1], right[2], right[3],
+                                                right[4], th)
     return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
+
+
+@njit(cache=True)
+def settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work):
+    """settled_fingers_cross, the settled links kept in work's cache (`settle_links`)."""
+    cache = work[SETTLED:SETTLED + 12]
+    for s in range(2):
+        t1 = t1l if s == 0 else t1r
+        t2 = t2l if s == 0 else t2r
+        l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
+        settle_links(cache, s, t1, t2, l1c, l1s, l2c, l2s)
+    return fingers_cross(settled_polyline(0, w, cache), settled_polyline(1, w, cache))
+
+
+@njit(cache=True)
+def slide_context(finger, w, collision):
+    """What `collide_near` keeps between the positions of one map's slides: the symmetric
+    closing (`symmetric_meeting`) and a scratch of WORK_SIZE whose hint carries over from one
+    position to the next (a slide's positions are near each other). None when the effect is
+    off."""
+    if collision is None:
+        return None
+    work = np.empty(WORK_SIZE)
+    work[HINT] = 5
+    return symmetric_meeting(finger, w, collision), work
+
+
+@njit(cache=True)
+def collide_near(finger, w, collision, context, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r,
+                 k1r, k2r):
+    """collide for one of many positions of a map (`context` from slide_context): the meeting
+    found as resolve_collisions finds a grid point's (`meeting_of`: the map's symmetric
+    closing, then the first contact after it), the reference's answer as collide's."""
+    left = (mode_l, t1l, t2l, k1l, k2l)
+    right = (mode_r, t1r, t2r, k1r, k2r)
+    if collision is None or mode_l < 0 or mode_r < 0:
+        return False, left, right
+    (starts_crossed, sym_node, sym_meeting), work = context
+    if starts_crossed:  # the open fingers touch: nothing is re-run (as the reference)
+        return False, left, right
+    crossed = settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work)
+    return stopped_pair(meeting_of(t1l, t2l, t1r, t2r, finger, w, collision, sym_node,
+                                   sym_meeting, work, crossed), finger, left, right)
 
 
 @njit(cache=True)
@@ -905,13 +957,7 @@ def meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work):
     way: the reference's bits (`meeting_progress`), predicted from the first contact from the
     start of the closing (its first phase is the symmetric rigid sweep) and replayed; the
     reference itself where a check fails. `work`: scratch of WORK_SIZE."""
-    cache = work[SETTLED:SETTLED + 12]
-    for s in range(2):
-        t1 = t1l if s == 0 else t1r
-        t2 = t2l if s == 0 else t2r
-        l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
-        settle_links(cache, s, t1, t2, l1c, l1s, l2c, l2s)
-    if not fingers_cross(settled_polyline(0, w, cache), settled_polyline(1, w, cache)):
+    if not settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work):
         return -1.0
     work[HINT] = 5
     p = predicted_meeting(t1l, t2l, t1r, t2r, finger, w, collision, 0.0, work)

@@ -9,7 +9,7 @@ from numba import njit
 from ..model import EJECT, FREE, INFEASIBLE, RANGE_TOL, REACHED, SLIPPED, UNREACHED, VERTEX, \
     VERTEX_POINT
 from .finger import OVERLAP, finger_energy, solve_finger, spring_energy
-from .collision import collide
+from .collision import collide, collide_near
 from .records import JointSprings, with_joint_springs
 
 
@@ -58,13 +58,38 @@ def point_outcome(x, y, finger, solver, effects, hand):
     """(class, energy) of the part centred at world (x, y): both fingers closed on it (finger
     frames d = (-x - w/2, y) and (x - w/2, y), MODEL 2), finger_collision when on; the energy
     is +inf where the point is INFEASIBLE (no energy there, and never lower than another)."""
+    c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, np.inf, None)
+    return c, e
+
+
+@njit(cache=True)
+def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
+    """point_outcome for a search that only asks whether the energy is below `bound`:
+    (class, energy, exact). Not exact (exact False) only with finger_collision, where the
+    settled fingers' energy is already above `bound`: then that energy is returned, a lower
+    bound of the true one (a finger stopped on the other has angles no larger than its
+    settled ones, and the energy falls as either angle grows: MODEL 6 with tensions >= 0 and
+    no springs), and the meeting is not searched. `context`: collision.slide_context (the
+    meeting found as on the grid) or None (collision.collide)."""
     w = hand.w
     sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
     sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
-    _, left, right = collide(finger, w, effects.finger_collision, sl.mode, sl.t1, sl.t2, sl.k1,
-                             sl.k2, sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+    collision = effects.finger_collision
+    if collision is not None and effects.joint_springs is None and hand.f_left >= 0.0 \
+            and hand.f_right >= 0.0:
+        c = classify_point(y, finger.r, sl.mode, sr.mode)
+        if c != INFEASIBLE:  # (the effect does not change an infeasible point)
+            e = point_energy(sl.t1, sl.t2, sr.t1, sr.t2, finger, hand, None)
+            if e > bound:
+                return c, e, False
+    if context is None:
+        _, left, right = collide(finger, w, collision, sl.mode, sl.t1, sl.t2, sl.k1, sl.k2,
+                                 sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+    else:
+        _, left, right = collide_near(finger, w, collision, context, sl.mode, sl.t1, sl.t2,
+                                      sl.k1, sl.k2, sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
     c = classify_point(y, finger.r, left[0], right[0])
     if c == INFEASIBLE:
-        return c, np.inf
+        return c, np.inf, True
     return c, point_energy(left[1], left[2], right[1], right[2], finger, hand,
-                           effects.joint_springs)
+                           effects.joint_springs), True

@@ -17,9 +17,12 @@ Three methods, an accuracy setting (`SolverSettings.trajectory`, model-notes D16
 - continuous: streamlines on the interpolated energy (`streamline.py`).
 
 A point's end is its successor's end, so shared paths are walked once; energies fall strictly
-along every path (grid steps and slides alike), so no path returns to a point.
+along every path (grid steps and slides alike), so no path returns to a point. The slides of a
+map share one memo of the model's outcomes (`OutcomeMemo`): a position evaluated before, or the
+mirror image in x of one, is read rather than solved again (model-notes D16, "Cost").
 """
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -35,7 +38,8 @@ from ..model import (
     TRAJECTORY_GRID8,
     TRAJECTORY_SLIDING,
 )
-from .point import point_outcome
+from .collision import slide_context
+from .point import point_outcome_below
 from .streamline import streamline_ends
 
 # The 8 neighbours in the order that breaks ties (MODEL 8): E, NE, N, NW, W, SW, S, SE.
@@ -87,6 +91,112 @@ def max_slide_points(ny, nx):
 SLIDE_REJOINS, SLIDE_EJECTS, SLIDE_STALLS = 0, 1, 2
 
 
+class OutcomeMemo(NamedTuple):
+    """The outcomes (`point.point_outcome`) the slides of one map have asked for, by position:
+    an open-addressing hash table (linear probing) keyed by the bits of (|x|, y) where the hand
+    is symmetric (`mirror`: equal tensions; the model is then exactly mirror-symmetric,
+    point_outcome(-x, y) = point_outcome(x, y) bit for bit, tests/test_slide_memo.py), else
+    of (x, y). A hit returns the bits a new evaluation would, so the slides are the same with
+    or without it. An entry may hold a lower bound of the energy
+    (`point.point_outcome_below`), which answers a later search only if it is above that
+    search's bound. Where slides come in mirror pairs (a symmetric map) the second of a pair
+    is all hits, and the cascade's thorough search at radius h reads the step search's 8
+    directions at the same centre."""
+
+    keys: np.ndarray      # (capacity, 2) int64: key bits, EMPTY_KEY where free
+    values: np.ndarray    # (capacity, 3) float64: class, energy, 1 if exact (0: a lower bound)
+    bits: np.ndarray      # 2 float64 scratch: the key being looked up ...
+    key: np.ndarray       # ... and the same memory as int64
+    fill: np.ndarray      # 1 int64: entries in use
+    mirror: bool
+
+
+EMPTY_KEY = -1       # no position has these bits (a NaN)
+MEMO_MIN_CAPACITY = 4096  # entries (40 bytes each), allocated at a map's first slide
+# Bound on a map's memo: 10.5 MB per map being computed (a thread's), about 130,000 positions
+# (a map of the 1,200 at h = 0.05 asks for 1,000-6,000); a full memo is still read.
+MEMO_MAX_CAPACITY = 1 << 18
+
+
+@njit(cache=True)
+def new_memo(capacity, mirror):
+    """An empty OutcomeMemo of `capacity` entries (a power of two)."""
+    bits = np.empty(2)
+    return OutcomeMemo(np.full((capacity, 2), EMPTY_KEY, dtype=np.int64),
+                       np.empty((capacity, 3)), bits, bits.view(np.int64),
+                       np.zeros(1, dtype=np.int64), mirror)
+
+
+@njit(cache=True)
+def memo_for_slide(memo):
+    """The memo to give the next slide: the same, or (before the first slide of the map, and
+    once it is a quarter full, so that a slide finds room) a larger copy of it. Allocation
+    happens here, between slides, and the capacity grows fourfold, up to MEMO_MAX_CAPACITY:
+    amortised over the evaluations, which cost microseconds each."""
+    capacity = memo.keys.shape[0]
+    if capacity >= MEMO_MIN_CAPACITY and (4 * memo.fill[0] <= capacity
+                                          or capacity >= MEMO_MAX_CAPACITY):
+        return memo
+    bigger = new_memo(min(max(MEMO_MIN_CAPACITY, 4 * capacity), MEMO_MAX_CAPACITY), memo.mirror)
+    for s in range(capacity):
+        if memo.keys[s, 0] != EMPTY_KEY:
+            memo_store(bigger, memo.keys[s, 0], memo.keys[s, 1], memo.values[s, 0],
+                       memo.values[s, 1], memo.values[s, 2])
+    return bigger
+
+
+@njit(cache=True)
+def memo_slot(memo, k0, k1):
+    """The slot of key (k0, k1) in the memo, or of the free slot where it would go."""
+    mask = memo.keys.shape[0] - 1
+    mix = k0 ^ (k1 >> 3)
+    mix ^= mix >> 23
+    mix ^= mix >> 11
+    s = mix & mask
+    while memo.keys[s, 0] != EMPTY_KEY and (memo.keys[s, 0] != k0 or memo.keys[s, 1] != k1):
+        s = (s + 1) & mask  # the memo is at most half full: a free slot comes
+    return s
+
+
+@njit(cache=True)
+def memo_store(memo, k0, k1, c, e, exact):
+    """Enter an outcome, or replace a lower bound by the exact one (no new entry where the
+    memo is half full: it is then only read)."""
+    s = memo_slot(memo, k0, k1)
+    if memo.keys[s, 0] == EMPTY_KEY:
+        if 2 * (memo.fill[0] + 1) > memo.keys.shape[0]:
+            return
+        memo.keys[s, 0] = k0
+        memo.keys[s, 1] = k1
+        memo.fill[0] += 1
+    memo.values[s, 0] = c
+    memo.values[s, 1] = e
+    memo.values[s, 2] = exact
+
+
+@njit(cache=True)
+def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
+    """(class, energy) at world (x, y) for a search that only asks whether the energy is
+    below `bound` (+inf: the exact outcome): point.point_outcome_below, read from the memo
+    where it holds the position (or its mirror image, for a symmetric hand) well enough.
+    The energy is exact, or a lower bound above `bound`; the search compares it with `bound`
+    only (`e < best`), so its decisions are those of the exact energies. `memo` None: always
+    evaluated; `context`: collision.slide_context or None."""
+    if memo is None:
+        c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+        return c, e
+    memo.bits[0] = abs(x) if memo.mirror else x
+    memo.bits[1] = y
+    k0 = memo.key[0]
+    k1 = memo.key[1]
+    s = memo_slot(memo, k0, k1)
+    if memo.keys[s, 0] != EMPTY_KEY and (memo.values[s, 2] != 0.0 or memo.values[s, 1] > bound):
+        return int(memo.values[s, 0]), memo.values[s, 1]
+    c, e, exact = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+    memo_store(memo, k0, k1, c, e, 1.0 if exact else 0.0)
+    return c, e
+
+
 @njit(cache=True)
 def downhill_neighbour(energy, point_class, i, j, h):
     """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
@@ -111,7 +221,8 @@ def downhill_neighbour(energy, point_class, i, j, h):
 
 
 @njit(cache=True)
-def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand):
+def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand,
+                     memo=None, context=None):
     """(energy, class, unit direction ux, uy) of the lowest point found on the circle of radius
     rho around world (x, y) (the search of the module's SLIDE_* constants; `thorough` for the
     stall decision). Ties go to the first evaluated: directions counter-clockwise from E, then
@@ -122,29 +233,32 @@ def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand
     ux = 0.0
     uy = 0.0
     for n in range(0, SLIDE_DIRECTIONS, stride):
-        c, e = point_outcome(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n], finger, solver,
-                             effects, hand)
+        # the thorough search keeps every direction's energy (its local minima): exact
+        c, e = outcome_at(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n],
+                          np.inf if thorough else best, finger, solver, effects, hand, memo,
+                          context)
         scratch[n] = e
         if e < best:
             best, best_class, ux, uy = e, c, SLIDE_DX[n], SLIDE_DY[n]
     half = math.pi * stride / SLIDE_DIRECTIONS
     if not thorough:
         return refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver,
-                                effects, hand)
+                                effects, hand, memo, context)
     for n in range(SLIDE_DIRECTIONS):  # refine around every local minimum of the circle
         e = scratch[n]
         if not (e <= scratch[n - 1] and e <= scratch[(n + 1) % SLIDE_DIRECTIONS]) \
                 or not math.isfinite(e):
             continue
         e, c, vx, vy = refine_on_circle(x, y, rho, e, INFEASIBLE, SLIDE_DX[n], SLIDE_DY[n],
-                                        half, finger, solver, effects, hand)
+                                        half, finger, solver, effects, hand, memo, context)
         if e < best:
             best, best_class, ux, uy = e, c, vx, vy
     return best, best_class, ux, uy
 
 
 @njit(cache=True)
-def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand):
+def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand,
+                     memo=None, context=None):
     """SLIDE_REFINE times: the directions `half` either side of (ux, uy) (counter-clockwise
     first), the lower replacing it; `half` halves each time."""
     for _ in range(SLIDE_REFINE):
@@ -155,7 +269,8 @@ def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, 
             s = sd if side == 0 else -sd
             vx = cx * cd - cy * s
             vy = cy * cd + cx * s
-            c, e = point_outcome(x + rho * vx, y + rho * vy, finger, solver, effects, hand)
+            c, e = outcome_at(x + rho * vx, y + rho * vy, best, finger, solver, effects, hand,
+                              memo, context)
             if e < best:
                 best, best_class, ux, uy = e, c, vx, vy
         half *= 0.5
@@ -173,13 +288,14 @@ def nearest_grid_point(x, y, xs, ys, h):
 
 @njit(cache=True)
 def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, solver, effects,
-                    hand, path):
+                    hand, path, memo=None, context=None):
     """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
     energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
     points written to `path`): the grid point where the slide rejoins the grid (lower than the
     start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`
     is None, or an array (n, 2) that receives the world positions of the slide (pictures,
-    tests)."""
+    tests); `memo`: the map's OutcomeMemo, or None; `context`: the map's
+    collision.slide_context, or None."""
     ny, nx = energy.shape
     h = hand.h
     e_start = energy[j0, i0]
@@ -192,7 +308,7 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     for _ in range(max_slide_points(ny, nx) - 1):
         rho = h * SLIDE_CASCADE_RADIUS[stage]
         e, c, ux, uy = lowest_on_circle(x, y, rho, SLIDE_CASCADE_THOROUGH[stage], scratch,
-                                        finger, solver, effects, hand)
+                                        finger, solver, effects, hand, memo, context)
         if not (e < e_here - SLIDE_REL * abs(e_here)):
             stage += 1
             if stage == len(SLIDE_CASCADE_RADIUS):
@@ -258,6 +374,8 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
     for p in range(size):
         end_state.flat[p] = END_NONE
         end_index.flat[p] = -1
+    memo = new_memo(1, hand.f_left == hand.f_right)  # grown at the first slide
+    context = slide_context(finger, hand.w, effects.finger_collision)
     for p0 in range(size):
         j0 = p0 // nx
         i0 = p0 - j0 * nx
@@ -290,8 +408,10 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                     state = END_STALLED
                     last = p
                     break
+                memo = memo_for_slide(memo)
                 q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
-                                             finger, solver, effects, hand, None)
+                                             finger, solver, effects, hand, None, memo,
+                                             context)
                 if kind != SLIDE_REJOINS:
                     state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
                     last = q
