@@ -136,7 +136,7 @@ def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, 
 
 def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
                manipulation: bool = False) -> int:
-    """Bytes one thread holds while it computes one cell (kernels/cells.py summarize_cell): the
+    """Bytes one thread holds while it computes one cell (kernels/field.py summarize_cell): the
     shared finger field, one width's map at a time (both fingers gathered, the outcomes, the
     trajectory stack) and, with the manipulation metric, the shared field's link vectors and
     statics (7 floats a point), Scenario A's per-pose force buffers (a count and two floats per

@@ -205,7 +205,7 @@ def test_contact_forces_balance_the_joint_torques(mode_args):
 
 # --- tie rules of model-notes D3, D5 ---------------------------------------------------------
 from sweep.kernels.finger import vertex_entry  # noqa: E402
-from sweep.kernels.part import fingers_cross, mouth_opening, part_contained  # noqa: E402
+from sweep.kernels.hand import fingers_cross, mouth_opening, part_contained  # noqa: E402
 
 
 def test_shared_base_at_zero_palm_width_is_not_a_crossing():

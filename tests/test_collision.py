@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sweep.kernels.collision import meeting_progress, resolve_collisions, stopped_finger
+from sweep.kernels.hand import meeting_progress, resolve_collisions, stopped_finger
 from sweep.kernels.records import FingerCollision, new_finger_arrays
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
@@ -171,7 +171,7 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
     unit of progress); the answer must be that of testing every node. The every-node search is
     written here from paths_cross_at, on random closing paths of random designs and widths
     (w = 0 included: shared base)."""
-    from sweep.kernels.collision import paths_cross_at
+    from sweep.kernels.hand import paths_cross_at
 
     def every_node(t1l, t2l, t1r, t2r, finger, w):
         th = finger.theta2_min
@@ -211,11 +211,11 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
 
 # --- the map's way (resolve_collisions) against the reference search, bit for bit -----------
 # resolve_collisions finds the meeting from the symmetric closing and the first contact in
-# closed form, and replays the reference's bisection (kernels/collision.py); the reference,
+# closed form, and replays the reference's bisection (kernels/hand.py); the reference,
 # resolve_collisions_reference, steps and bisects at every crossed point. Same bits asked.
 def _settled_fields(design, part, h):
     """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
-    from sweep.kernels.cells import cell_map
+    from sweep.kernels.field import cell_map
     from sweep.grid import grid_index_bounds, palm_half_width_steps
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
@@ -238,7 +238,7 @@ def _assert_same_fingers(a, b):
 def test_map_way_gives_the_reference_search_bits(seed):
     """Random designs and parts of the paper table (w = l1 and w = 0 included: a distal joint
     lands on the other finger's base at t1 = pi, the bases coincide), whole maps at h = 0.1."""
-    from sweep.kernels.collision import resolve_collisions_reference
+    from sweep.kernels.hand import resolve_collisions_reference
     rng = np.random.default_rng(seed)
     n_met = 0
     for k in range(3):
@@ -264,7 +264,7 @@ def test_map_way_gives_the_reference_search_bits_on_any_fingers(l1, l2, w, seed)
     """Settled angles drawn at random (not only those a part makes), each point's fingers
     anywhere in their ranges, modes mixed: the meeting and the stopped fingers are the
     reference's bits."""
-    from sweep.kernels.collision import resolve_collisions_reference
+    from sweep.kernels.hand import resolve_collisions_reference
     rng = np.random.default_rng(seed)
     finger = finger_record(l1, l2)
     n = 60
@@ -290,8 +290,8 @@ def test_sweep_way_gives_the_reference_search_summaries():
     geometry group) against maps whose fingers the reference resolves: every summary field,
     bit for bit, n_collision_changed included."""
     from sweep.compute.batch import summarize_cells
-    from sweep.kernels import cells as cell_kernels
-    from sweep.kernels.collision import resolve_collisions_reference
+    from sweep.kernels import field as cell_kernels
+    from sweep.kernels.hand import resolve_collisions_reference
     from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
     from sweep.kernels.records import NO_EFFECTS, Hand, new_outcome_arrays
     from sweep.grid import grid_index_bounds, palm_half_width_steps
@@ -333,7 +333,7 @@ def test_sweep_way_gives_the_reference_search_summaries():
 def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, step, tol):
     """bisect_by_comparison runs the reference's bisection on integer mantissas where both
     ends share a binade; the floating-point steps, written here, must give the same bits."""
-    from sweep.kernels.collision import REPLAY_WINDOW, bisect_by_comparison
+    from sweep.kernels.hand import REPLAY_WINDOW, bisect_by_comparison
     lo, hi = (n - 1) * step, n * step
     tau = lo + where * (hi - lo)
     expected = (lo, hi, False)
@@ -358,7 +358,7 @@ def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, ste
 def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
     """collide (one part position, no map: the trajectories' off-grid points) finds the
     reference's meeting and stops the fingers as resolve_collisions_reference would."""
-    from sweep.kernels.collision import collide, settled_fingers_cross
+    from sweep.kernels.hand import collide, settled_fingers_cross
     rng = np.random.default_rng(seed)
     finger = finger_record(l1, l2)
     for _ in range(20):

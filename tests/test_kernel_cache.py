@@ -10,7 +10,7 @@ import sweep.kernels as kernels
 
 
 def test_cache_directory_is_keyed_by_the_kernel_sources():
-    from sweep.kernels.cells import summarize_cells_shared
+    from sweep.kernels.field import summarize_cells_shared
     from sweep.kernels.field import finger_field
 
     key = f"kernels-{kernels._kernel_source_digest()}"
@@ -29,7 +29,7 @@ def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
         (fake / name).write_bytes((Path(kernels.__file__).parent.parent / name).read_bytes())
     monkeypatch.setattr(kernels, "__file__", str(fake / "kernels" / "__init__.py"))
     before = kernels._kernel_source_digest()
-    part = fake / "kernels" / "part.py"
+    part = fake / "kernels" / "hand.py"
     part.write_text(part.read_text() + "\n# changed\n")
     after_kernel = kernels._kernel_source_digest()
     assert after_kernel != before

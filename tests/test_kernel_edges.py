@@ -8,7 +8,7 @@ import pytest
 
 from kernel_calls import closing, solve
 from naive import naive_finger
-from sweep.kernels.cells import pose_radius_sum
+from sweep.kernels.field import pose_radius_sum
 from sweep.compute.manipulation import HullReduction
 from sweep.model import DISTAL_ONLY, SLIPPED, VERTEX
 
@@ -105,7 +105,7 @@ def test_coarse_root_tolerance_keeps_contacts_on_the_link_and_agrees_with_the_re
 
 
 # ---------------------------------------------------------------------------------------------
-# cells.py: a pose's value needs three forces, not four (MODEL 10: "0 if fewer than 3 forces")
+# field.py: a pose's value needs three forces, not four (MODEL 10: "0 if fewer than 3 forces")
 # ---------------------------------------------------------------------------------------------
 def test_three_forces_around_the_origin_give_a_positive_value():
     count = np.array([[3]], dtype=np.int64)
@@ -165,11 +165,11 @@ def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined
 
 
 # ---------------------------------------------------------------------------------------------
-# part.py: the palm supports a part whose centre is over its end (MODEL 7: y = r, |x| <= w/2)
+# hand.py: the palm supports a part whose centre is over its end (MODEL 7: y = r, |x| <= w/2)
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("w", [0.8, 1.2, 0.0])
 def test_a_part_over_the_palm_end_touches_the_palm(w):
-    from sweep.kernels.part import touches_palm
+    from sweep.kernels.hand import touches_palm
     r = 0.4
     for sign in (1.0, -1.0):
         assert touches_palm(sign * 0.5 * w, r, w, r)                 # over the end: inclusive
@@ -178,12 +178,12 @@ def test_a_part_over_the_palm_end_touches_the_palm(w):
 
 
 # ---------------------------------------------------------------------------------------------
-# point.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
+# field.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
 # each finger), also in the sliver y in [r - RANGE_TOL, r) that the palm test lets through
 # ---------------------------------------------------------------------------------------------
 def test_a_part_overlapping_either_finger_base_is_infeasible():
     from sweep.kernels.finger import OVERLAP
-    from sweep.kernels.point import classify_point
+    from sweep.kernels.field import classify_point
     from sweep.model import INFEASIBLE, REACHED, TWO_PHALANX
 
     w, r = 0.8, 0.4

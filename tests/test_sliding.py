@@ -409,9 +409,9 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     exactly equal energy (the directions are exact mirror images, D16). At (0, 2.0) of the
     crease map, h = 0.05, the lowest of the step's search is the pair E / W: the first
     evaluated, E, is kept."""
-    from sweep.kernels.point import point_outcome
+    from sweep.kernels.field import point_outcome
     from sweep.kernels.records import Hand
-    from sweep.kernels.trajectory import SLIDE_DIRECTIONS, lowest_on_circle
+    from sweep.kernels.field import SLIDE_DIRECTIONS, lowest_on_circle
     from sweep.compute.layout import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
-from ..kernels.cells import cell_map, summarize_cells_shared, summarize_direct_map
+from ..kernels.field import cell_map, summarize_cells_shared, summarize_direct_map
 from ..kernels.records import Hand, ManipulationOut
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS

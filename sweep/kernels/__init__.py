@@ -1,14 +1,15 @@
 """Numba kernels. Only this package holds `@njit` code; the layers above call it.
 
-finger    one finger's mechanics: contact geometry and vertex strikes (MODEL 3, 4), statics in
-          joint-torque space (MODEL 5.1-5.3, tip_contact), the edge and tip paths of a finger
-          that cannot hold, the closing sequence, energy and forces (MODEL 4-6)
-part      part equilibrium, containment, opening (MODEL 7, 8)
-collision finger_collision: where the two closing fingers first meet (MODEL 9, model-notes D14)
-records   the parameter and result records every kernel takes and returns
-field     grids of points, in parallel: finger fields, map outcomes, trajectories (MODEL 8)
-cells     many maps at once: summaries of cells x palm widths from shared finger fields
-hull      exact 2-D convex hulls of forces per pose, mergeable (manipulation metric, MODEL 10)
+finger     one finger's mechanics: contact geometry and vertex strikes (MODEL 3, 4), statics in
+           joint-torque space (MODEL 5.1-5.3, tip_contact), the edge and tip paths of a finger
+           that cannot hold, the closing sequence, energy and forces (MODEL 4-6)
+hand       two fingers and the part: part equilibrium, containment, opening (MODEL 7, 8), and
+           finger_collision, where the two closing fingers first meet (MODEL 9, D14)
+records    the parameter and result records every kernel takes and returns
+field      grids of points: one position anywhere, trajectories (MODEL 8), one map's finger
+           fields, outcomes and summary, many maps at once from shared finger fields
+streamline the continuous trajectories (MODEL 8, D12)
+hull       exact 2-D convex hulls of forces per pose, mergeable (manipulation metric, MODEL 10)
 
 Compiled kernels are cached on disk (`cache=True`). Numba checks only the file of the function it
 loads, so a kernel that inlines a changed function from another file would load stale code: the
@@ -43,6 +44,6 @@ def _cache_root() -> Path:
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
 try:
-    from . import cells, collision, field, finger, hull, part, records  # noqa: E402,F401
+    from . import field, finger, hand, hull, records, streamline  # noqa: E402,F401
 finally:
     numba.config.CACHE_DIR = _user_cache_dir

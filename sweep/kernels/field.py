@@ -1,18 +1,39 @@
-"""Grids of points: finger fields, per-point outcomes, trajectories and the summary of a map
-(MODEL 7, 8).
+"""Grids of points (MODEL 4-8): one part position anywhere, a map's finger fields, outcomes and
+trajectories, and many maps at once from shared finger fields. In the order of this file:
 
-The map pipeline, `map_from_fingers`: outcomes -> trajectories -> summary, from finger fields
-that the caller fills (directly with `finger_field`, or by gathering a shared field in
-`kernels.cells`). The sweep's shared-field path and the plot go through it; `sweep.compute.
-maps.compute_map` through `map_from_fingers_parallel`, the same steps with the outcome rows in
-`prange`. Row functions do the work; `finger_field` and `outcome_rows_parallel` loop over rows
-with `prange` (one map, all threads), `finger_field_serial` and `map_from_fingers` run inside the
-sweep's own parallel loop over maps (Numba's default threading layer does not nest parallel
-regions).
+- *One position* (`point_outcome`): both fingers solved, collided, classified, and the energy.
+  The grid's outcome rows read the class and the energy from here, and the sliding trajectories
+  evaluate the model off the grid with the same functions, so a point has one class and one
+  energy whichever asks.
+- *Trajectories* (MODEL 8, `trajectories`): from every point of P_j downhill to where the part
+  stops, by one of three methods (`SolverSettings.trajectory`, model-notes D16): grid8, sliding
+  (the default; slides on the true energy where every grid neighbour is uphill) or continuous
+  (`streamline.py`).
+- *One map* (`map_from_fingers`): outcomes -> trajectories -> summary, from finger fields that
+  the caller fills (directly with `finger_field`, or by gathering a shared field). The sweep's
+  shared-field path and the plot go through it; `sweep.compute.maps.compute_map` through
+  `map_from_fingers_parallel`, the same steps with the outcome rows in `prange`. Row functions
+  do the work; `finger_field` and `outcome_rows_parallel` loop over rows with `prange` (one map,
+  all threads), `finger_field_serial` and `map_from_fingers` run inside the sweep's own
+  parallel loop over maps (Numba's default threading layer does not nest parallel regions).
+- *Many maps* (`summarize_cells_shared`): per-map summaries of cells (l1, l2, r1, r2, r, mu) x
+  palm widths. A finger's solution depends only on the part centre relative to its base, so
+  when every palm half-width is a whole number of grid steps, one right-finger field over
+  integer offsets serves both fingers of every width: the right finger at world column i reads
+  offset i - s, the left finger offset -i - s (model-notes D1). The offsets are the same
+  floating-point numbers the direct computation uses, so the maps are bitwise identical to
+  `compute_map`'s.
+
+One module, not four (P14): the import chain from the CLI to the model stays within ten modules
+(tests/test_layers.py); the sections above were the modules point, trajectory, field and
+cells.
 """
-
+import math
+import numba
 import numpy as np
+
 from numba import njit, prange
+from typing import NamedTuple
 
 from ..model import (
     EJECT,
@@ -21,21 +42,539 @@ from ..model import (
     END_NONE,
     END_STALLED,
     END_TIP_PREHENSION,
+    FREE,
     INFEASIBLE,
     RANGE_TOL,
     REACHED,
+    SLIPPED,
+    TRAJECTORY_GRID8,
+    TRAJECTORY_SLIDING,
     UNREACHED,
+    VERTEX,
     VERTEX_POINT,
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
-from .collision import resolve_collisions, rests_on_other_finger
-from .finger import finger_statics, solve_finger
-from .part import finger_polyline, fingers_cross, part_contained, part_in_equilibrium, \
-    tip_clearance
-from .point import classify_point, point_energy
-from .records import FingerState, blocks_of
-from .trajectory import trajectories
+from .hand import (
+    collide,
+    collide_near,
+    resolve_collisions,
+    rests_on_other_finger,
+    slide_context,
+)
+from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
+from .hull import convex_hull, inscribed_radius
+from .hand import (
+    finger_polyline,
+    fingers_cross,
+    link_vectors,
+    part_contained,
+    part_in_equilibrium,
+    polyline_from_links,
+    tip_clearance,
+    touches_palm,
+)
+from .records import (
+    blocks_of,
+    finger_blocks,
+    FingerModel,
+    FingerState,
+    Hand,
+    JointSprings,
+    new_finger_arrays,
+    new_force_arrays,
+    new_outcome_arrays,
+    SettledFingers,
+    with_joint_springs,
+)
+from .streamline import streamline_ends
 
+
+# ---------------------------------------------------------------------------------------------
+# One position
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def classify_point(y, r, mode_l, mode_r):
+    """MODEL 8 classes, first that applies."""
+    if y < r - RANGE_TOL or mode_l == OVERLAP or mode_r == OVERLAP:
+        return INFEASIBLE
+    if mode_l == SLIPPED or mode_r == SLIPPED:
+        return EJECT
+    if mode_l == VERTEX or mode_r == VERTEX:
+        return VERTEX_POINT
+    if mode_l == FREE and mode_r == FREE:
+        return UNREACHED
+    return REACHED
+
+
+@njit(cache=True)
+def point_energy(a1l, a2l, a1r, a2r, finger, hand, springs):
+    """The system energy V_left + V_right of a point (MODEL 6), springs included when on."""
+    e = (finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
+         + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
+    if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
+        e += (spring_energy(a1l, a2l, springs, finger.theta2_min)
+              + spring_energy(a1r, a2r, springs, finger.theta2_min))
+    return e
+
+
+@njit(cache=True)
+def finger_effects(effects, tension):
+    """A finger's effect blocks: the springs act per unit of that finger's tendon tension
+    (records.JointSprings), as in `maps.compute_map`'s per-side blocks."""
+    return with_spring_tension(effects, effects.joint_springs, tension)
+
+
+@njit(cache=True)
+def with_spring_tension(effects, springs, tension):
+    # the block as an argument: Numba prunes `is None` only on a function's own arguments
+    if springs is None:
+        return effects
+    return with_joint_springs(effects, JointSprings(springs.k1, springs.k2, tension))
+
+
+@njit(cache=True)
+def point_outcome(x, y, finger, solver, effects, hand):
+    """(class, energy) of the part centred at world (x, y): both fingers closed on it (finger
+    frames d = (-x - w/2, y) and (x - w/2, y), MODEL 2), finger_collision when on; the energy
+    is +inf where the point is INFEASIBLE (no energy there, and never lower than another)."""
+    c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, np.inf, None)
+    return c, e
+
+
+@njit(cache=True)
+def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
+    """point_outcome for a search that only asks whether the energy is below `bound`:
+    (class, energy, exact). Not exact (exact False) only with finger_collision, where the
+    settled fingers' energy is already above `bound`: then that energy is returned, a lower
+    bound of the true one (a finger stopped on the other has angles no larger than its
+    settled ones, and the energy falls as either angle grows: MODEL 6 with tensions >= 0 and
+    no springs), and the meeting is not searched. `context`: collision.slide_context (the
+    meeting found as on the grid) or None (collision.collide)."""
+    w = hand.w
+    sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
+    sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
+    collision = effects.finger_collision
+    if collision is not None and effects.joint_springs is None and hand.f_left >= 0.0 \
+            and hand.f_right >= 0.0:
+        c = classify_point(y, finger.r, sl.mode, sr.mode)
+        if c != INFEASIBLE:  # (the effect does not change an infeasible point)
+            e = point_energy(sl.t1, sl.t2, sr.t1, sr.t2, finger, hand, None)
+            if e > bound:
+                return c, e, False
+    if context is None:
+        _, left, right = collide(finger, w, collision, sl.mode, sl.t1, sl.t2, sl.k1, sl.k2,
+                                 sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+    else:
+        _, left, right = collide_near(finger, w, collision, context, sl.mode, sl.t1, sl.t2,
+                                      sl.k1, sl.k2, sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+    c = classify_point(y, finger.r, left[0], right[0])
+    if c == INFEASIBLE:
+        return c, np.inf, True
+    return c, point_energy(left[1], left[2], right[1], right[2], finger, hand,
+                           effects.joint_springs), True
+
+
+# ---------------------------------------------------------------------------------------------
+# Trajectories
+# ---------------------------------------------------------------------------------------------
+# The 8 neighbours in the order that breaks ties (MODEL 8): E, NE, N, NW, W, SW, S, SE.
+NEIGHBOUR_DI = (1, 1, 0, -1, -1, -1, 0, 1)
+NEIGHBOUR_DJ = (0, 1, 1, 1, 0, -1, -1, -1)
+
+# The slide's circle. Directions: 32, every 11.25 deg counter-clockwise from E, built from the
+# first quadrant by sign flips so that each is the exact mirror image in x of another (a
+# symmetric map slides symmetrically). The *step's search* uses every 4th (E, NE, N, ... as the
+# grid's neighbours) and SLIDE_REFINE halvings of the angle around the lowest (2 points each:
+# 45 deg -> 5.6 deg). The *thorough search* uses all 32, refined around each local minimum of
+# the circle (a narrow descending wedge between two walls is missed by 8 directions:
+# model-notes D16). From a position, the searches of SLIDE_CASCADE are tried in turn (radius
+# in grid steps, thorough or not) until one finds a lower point; where none does, the part
+# stalls. Each search costs 14 (step) or about 45 (thorough) evaluations of the model, and a
+# stall the whole cascade: the order puts the cheap searches first (model-notes D16, measured
+# in docs/performance.md).
+SLIDE_DIRECTIONS = 32
+SLIDE_CASCADE_RADIUS = (1.0, 0.25, 1.0)
+SLIDE_CASCADE_THOROUGH = (False, False, True)
+
+
+def _circle_directions(n):
+    quarter = [(math.cos(2.0 * math.pi * k / n), math.sin(2.0 * math.pi * k / n))
+               for k in range(n // 4 + 1)]
+    quarter[0] = (1.0, 0.0)
+    quarter[-1] = (0.0, 1.0)
+    upper = quarter + [(-c, s) for c, s in reversed(quarter[:-1])]   # 0 .. 180 deg
+    full = upper + [(c, -s) for c, s in reversed(upper[1:-1])]         # 180 .. 360 deg
+    return tuple(c for c, _ in full), tuple(s for _, s in full)
+
+
+SLIDE_DX, SLIDE_DY = _circle_directions(SLIDE_DIRECTIONS)
+SLIDE_STEP_STRIDE = SLIDE_DIRECTIONS // 8
+SLIDE_REFINE = 3
+# A slide step must lower the energy by more than this relative amount (round-off of the
+# energy, about 1e-16 relative, must not count as descent).
+SLIDE_REL = 1e-12
+# Defence in depth: a slide is at most this many circles per grid step of the map's size.
+SLIDE_STEPS_PER_CELL = 64
+
+
+@njit(cache=True)
+def max_slide_points(ny, nx):
+    """Positions a slide can visit at most (the length of a `path` array that holds any)."""
+    return SLIDE_STEPS_PER_CELL * (nx + ny) + 1
+
+# What a slide ends in (slide_successor's second value).
+SLIDE_REJOINS, SLIDE_EJECTS, SLIDE_STALLS = 0, 1, 2
+
+
+class OutcomeMemo(NamedTuple):
+    """The outcomes (`point.point_outcome`) the slides of one map have asked for, by position:
+    an open-addressing hash table (linear probing) keyed by the bits of (|x|, y) where the hand
+    is symmetric (`mirror`: equal tensions; the model is then exactly mirror-symmetric,
+    point_outcome(-x, y) = point_outcome(x, y) bit for bit, tests/test_slide_memo.py), else
+    of (x, y). A hit returns the bits a new evaluation would, so the slides are the same with
+    or without it. An entry may hold a lower bound of the energy
+    (`point.point_outcome_below`), which answers a later search only if it is above that
+    search's bound. Where slides come in mirror pairs (a symmetric map) the second of a pair
+    is all hits, and the cascade's thorough search at radius h reads the step search's 8
+    directions at the same centre."""
+
+    keys: np.ndarray      # (capacity, 2) int64: key bits, EMPTY_KEY where free
+    values: np.ndarray    # (capacity, 3) float64: class, energy, 1 if exact (0: a lower bound)
+    bits: np.ndarray      # 2 float64 scratch: the key being looked up ...
+    key: np.ndarray       # ... and the same memory as int64
+    fill: np.ndarray      # 1 int64: entries in use
+    mirror: bool
+
+
+EMPTY_KEY = -1       # no position has these bits (a NaN)
+MEMO_MIN_CAPACITY = 4096  # entries (40 bytes each), allocated at a map's first slide
+# Bound on a map's memo: 10.5 MB per map being computed (a thread's), about 130,000 positions
+# (a map of the 1,200 at h = 0.05 asks for 1,000-6,000); a full memo is still read.
+MEMO_MAX_CAPACITY = 1 << 18
+
+
+@njit(cache=True)
+def new_memo(capacity, mirror):
+    """An empty OutcomeMemo of `capacity` entries (a power of two)."""
+    bits = np.empty(2)
+    return OutcomeMemo(np.full((capacity, 2), EMPTY_KEY, dtype=np.int64),
+                       np.empty((capacity, 3)), bits, bits.view(np.int64),
+                       np.zeros(1, dtype=np.int64), mirror)
+
+
+@njit(cache=True)
+def memo_for_slide(memo):
+    """The memo to give the next slide: the same, or (before the first slide of the map, and
+    once it is a quarter full, so that a slide finds room) a larger copy of it. Allocation
+    happens here, between slides, and the capacity grows fourfold, up to MEMO_MAX_CAPACITY:
+    amortised over the evaluations, which cost microseconds each."""
+    capacity = memo.keys.shape[0]
+    if capacity >= MEMO_MIN_CAPACITY and (4 * memo.fill[0] <= capacity
+                                          or capacity >= MEMO_MAX_CAPACITY):
+        return memo
+    bigger = new_memo(min(max(MEMO_MIN_CAPACITY, 4 * capacity), MEMO_MAX_CAPACITY), memo.mirror)
+    for s in range(capacity):
+        if memo.keys[s, 0] != EMPTY_KEY:
+            memo_store(bigger, memo.keys[s, 0], memo.keys[s, 1], memo.values[s, 0],
+                       memo.values[s, 1], memo.values[s, 2])
+    return bigger
+
+
+@njit(cache=True)
+def memo_slot(memo, k0, k1):
+    """The slot of key (k0, k1) in the memo, or of the free slot where it would go."""
+    mask = memo.keys.shape[0] - 1
+    mix = k0 ^ (k1 >> 3)
+    mix ^= mix >> 23
+    mix ^= mix >> 11
+    s = mix & mask
+    while memo.keys[s, 0] != EMPTY_KEY and (memo.keys[s, 0] != k0 or memo.keys[s, 1] != k1):
+        s = (s + 1) & mask  # the memo is at most half full: a free slot comes
+    return s
+
+
+@njit(cache=True)
+def memo_store(memo, k0, k1, c, e, exact):
+    """Enter an outcome, or replace a lower bound by the exact one (no new entry where the
+    memo is half full: it is then only read)."""
+    s = memo_slot(memo, k0, k1)
+    if memo.keys[s, 0] == EMPTY_KEY:
+        if 2 * (memo.fill[0] + 1) > memo.keys.shape[0]:
+            return
+        memo.keys[s, 0] = k0
+        memo.keys[s, 1] = k1
+        memo.fill[0] += 1
+    memo.values[s, 0] = c
+    memo.values[s, 1] = e
+    memo.values[s, 2] = exact
+
+
+@njit(cache=True)
+def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
+    """(class, energy) at world (x, y) for a search that only asks whether the energy is
+    below `bound` (+inf: the exact outcome): point.point_outcome_below, read from the memo
+    where it holds the position (or its mirror image, for a symmetric hand) well enough.
+    The energy is exact, or a lower bound above `bound`; the search compares it with `bound`
+    only (`e < best`), so its decisions are those of the exact energies. `memo` None: always
+    evaluated; `context`: collision.slide_context or None."""
+    if memo is None:
+        c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+        return c, e
+    memo.bits[0] = abs(x) if memo.mirror else x
+    memo.bits[1] = y
+    k0 = memo.key[0]
+    k1 = memo.key[1]
+    s = memo_slot(memo, k0, k1)
+    if memo.keys[s, 0] != EMPTY_KEY and (memo.values[s, 2] != 0.0 or memo.values[s, 1] > bound):
+        return int(memo.values[s, 0]), memo.values[s, 1]
+    c, e, exact = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
+    memo_store(memo, k0, k1, c, e, 1.0 if exact else 0.0)
+    return c, e
+
+
+@njit(cache=True)
+def downhill_neighbour(energy, point_class, i, j, h):
+    """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
+    ny, nx = energy.shape
+    here = energy[j, i]
+    diagonal = h * math.sqrt(2.0)
+    best = -1
+    best_slope = 0.0
+    for n in range(8):
+        ii = i + NEIGHBOUR_DI[n]
+        jj = j + NEIGHBOUR_DJ[n]
+        if ii < 0 or ii >= nx or jj < 0 or jj >= ny:
+            continue
+        if point_class[jj, ii] == INFEASIBLE:
+            continue
+        distance = h if (NEIGHBOUR_DI[n] == 0 or NEIGHBOUR_DJ[n] == 0) else diagonal
+        slope = (here - energy[jj, ii]) / distance
+        if slope > best_slope:
+            best_slope = slope
+            best = jj * nx + ii
+    return best
+
+
+@njit(cache=True)
+def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand,
+                     memo=None, context=None):
+    """(energy, class, unit direction ux, uy) of the lowest point found on the circle of radius
+    rho around world (x, y) (the search of the module's SLIDE_* constants; `thorough` for the
+    stall decision). Ties go to the first evaluated: directions counter-clockwise from E, then
+    each refinement's counter-clockwise side first. `scratch`: SLIDE_DIRECTIONS floats."""
+    stride = 1 if thorough else SLIDE_STEP_STRIDE
+    best = np.inf
+    best_class = INFEASIBLE
+    ux = 0.0
+    uy = 0.0
+    for n in range(0, SLIDE_DIRECTIONS, stride):
+        # the thorough search keeps every direction's energy (its local minima): exact
+        c, e = outcome_at(x + rho * SLIDE_DX[n], y + rho * SLIDE_DY[n],
+                          np.inf if thorough else best, finger, solver, effects, hand, memo,
+                          context)
+        scratch[n] = e
+        if e < best:
+            best, best_class, ux, uy = e, c, SLIDE_DX[n], SLIDE_DY[n]
+    half = math.pi * stride / SLIDE_DIRECTIONS
+    if not thorough:
+        return refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver,
+                                effects, hand, memo, context)
+    for n in range(SLIDE_DIRECTIONS):  # refine around every local minimum of the circle
+        e = scratch[n]
+        if not (e <= scratch[n - 1] and e <= scratch[(n + 1) % SLIDE_DIRECTIONS]) \
+                or not math.isfinite(e):
+            continue
+        e, c, vx, vy = refine_on_circle(x, y, rho, e, INFEASIBLE, SLIDE_DX[n], SLIDE_DY[n],
+                                        half, finger, solver, effects, hand, memo, context)
+        if e < best:
+            best, best_class, ux, uy = e, c, vx, vy
+    return best, best_class, ux, uy
+
+
+@njit(cache=True)
+def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand,
+                     memo=None, context=None):
+    """SLIDE_REFINE times: the directions `half` either side of (ux, uy) (counter-clockwise
+    first), the lower replacing it; `half` halves each time."""
+    for _ in range(SLIDE_REFINE):
+        cd = math.cos(half)
+        sd = math.sin(half)
+        cx, cy = ux, uy
+        for side in range(2):
+            s = sd if side == 0 else -sd
+            vx = cx * cd - cy * s
+            vy = cy * cd + cx * s
+            c, e = outcome_at(x + rho * vx, y + rho * vy, best, finger, solver, effects, hand,
+                              memo, context)
+            if e < best:
+                best, best_class, ux, uy = e, c, vx, vy
+        half *= 0.5
+    return best, best_class, ux, uy
+
+
+@njit(cache=True)
+def nearest_grid_point(x, y, xs, ys, h):
+    """Flat index of the grid point nearest to world (x, y), clipped into the grid."""
+    nx = xs.shape[0]
+    i = min(max(int(math.floor((x - xs[0]) / h + 0.5)), 0), nx - 1)
+    j = min(max(int(math.floor((y - ys[0]) / h + 0.5)), 0), ys.shape[0] - 1)
+    return j * nx + i
+
+
+@njit(cache=True)
+def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, solver, effects,
+                    hand, path, memo=None, context=None):
+    """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
+    energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
+    points written to `path`): the grid point where the slide rejoins the grid (lower than the
+    start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`
+    is None, or an array (n, 2) that receives the world positions of the slide (pictures,
+    tests); `memo`: the map's OutcomeMemo, or None; `context`: the map's
+    collision.slide_context, or None."""
+    ny, nx = energy.shape
+    h = hand.h
+    e_start = energy[j0, i0]
+    x = xs[i0]
+    y = ys[j0]
+    e_here = e_start
+    stage = 0
+    scratch = np.empty(SLIDE_DIRECTIONS)
+    n_path = record(path, 0, x, y)
+    for _ in range(max_slide_points(ny, nx) - 1):
+        rho = h * SLIDE_CASCADE_RADIUS[stage]
+        e, c, ux, uy = lowest_on_circle(x, y, rho, SLIDE_CASCADE_THOROUGH[stage], scratch,
+                                        finger, solver, effects, hand, memo, context)
+        if not (e < e_here - SLIDE_REL * abs(e_here)):
+            stage += 1
+            if stage == len(SLIDE_CASCADE_RADIUS):
+                break
+            continue
+        x += rho * ux
+        y += rho * uy
+        e_here = e
+        stage = 0
+        n_path = record(path, n_path, x, y)
+        fi = (x - xs[0]) / h
+        fj = (y - ys[0]) / h
+        if c != REACHED or not (-0.5 <= fi < nx - 0.5 and -0.5 <= fj < ny - 0.5):
+            # the part left P_j, or the grid (a user window's edge)
+            return nearest_grid_point(x, y, xs, ys, h), SLIDE_EJECTS, n_path
+        # rejoin the grid at the lowest corner of the cell below the start's energy (a stable
+        # corner ends the trajectory whatever its energy)
+        ia = int(math.floor(fi))
+        ja = int(math.floor(fj))
+        best = -1
+        e_best = e_start - SLIDE_REL * abs(e_start)
+        for corner in range(4):
+            qi = ia + (corner & 1)
+            qj = ja + (corner >> 1)
+            if qi < 0 or qi >= nx or qj < 0 or qj >= ny or point_class[qj, qi] != REACHED:
+                continue
+            if equilibrium[qj, qi]:
+                best = qj * nx + qi
+                break
+            if energy[qj, qi] < e_best:
+                e_best = energy[qj, qi]
+                best = qj * nx + qi
+        if best >= 0:
+            return best, SLIDE_REJOINS, n_path
+    return nearest_grid_point(x, y, xs, ys, h), SLIDE_STALLS, n_path
+
+
+@njit(cache=True)
+def record(path, n, x, y):
+    """Write position n of a slide into `path` (None: not recorded); returns n + 1."""
+    if path is not None and n < path.shape[0]:
+        path[n, 0] = x
+        path[n, 1] = y
+    return n + 1
+
+
+@njit(cache=True)
+def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding):
+    """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
+    point of P_j (REACHED points): grid8, or with `sliding` the sliding method (module
+    docstring). `stack` is scratch of size >= number of points. Returns the map score Lambda
+    (MODEL 8)."""
+    energy = outs.energy
+    point_class = outs.point_class
+    end_state = outs.end_state
+    end_index = outs.end_index
+    equilibrium = outs.equilibrium
+    caged = outs.caged
+    caging_score = outs.caging_score
+    h = hand.h
+    ny, nx = energy.shape
+    size = ny * nx
+    for p in range(size):
+        end_state.flat[p] = END_NONE
+        end_index.flat[p] = -1
+    memo = new_memo(1, hand.f_left == hand.f_right)  # grown at the first slide
+    context = slide_context(finger, hand.w, effects.finger_collision)
+    for p0 in range(size):
+        j0 = p0 // nx
+        i0 = p0 - j0 * nx
+        if point_class[j0, i0] != REACHED or end_state.flat[p0] != END_NONE:
+            continue
+        depth = 0
+        p = p0
+        state = END_NONE
+        last = -1
+        while True:
+            j = p // nx
+            i = p - j * nx
+            if point_class[j, i] != REACHED:
+                state = END_EJECTION
+                last = p
+                break
+            if end_state.flat[p] != END_NONE:  # already resolved
+                state = end_state.flat[p]
+                last = end_index.flat[p]
+                break
+            stack[depth] = p
+            depth += 1
+            if equilibrium[j, i]:
+                state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
+                last = p
+                break
+            q = downhill_neighbour(energy, point_class, i, j, h)
+            if q < 0:
+                if not sliding:
+                    state = END_STALLED
+                    last = p
+                    break
+                memo = memo_for_slide(memo)
+                q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
+                                             finger, solver, effects, hand, None, memo,
+                                             context)
+                if kind != SLIDE_REJOINS:
+                    state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
+                    last = q
+                    break
+            p = q
+        for s in range(depth):
+            end_state.flat[stack[s]] = state
+            end_index.flat[stack[s]] = last
+    score_sum = 0.0
+    for p in range(size):
+        if end_state.flat[p] == END_CAGED:
+            score_sum += caging_score.flat[end_index.flat[p]]
+    return score_sum
+
+
+@njit(cache=True)
+def trajectories(outs, xs, ys, finger, solver, effects, hand, stack):
+    """The map's trajectory method (SolverSettings.trajectory, a run-time choice per map)."""
+    if solver.trajectory == TRAJECTORY_GRID8:
+        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, False)
+    if solver.trajectory == TRAJECTORY_SLIDING:
+        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, True)
+    return streamline_ends(outs, hand.h, stack, solver.streamline_step)
+
+
+# ---------------------------------------------------------------------------------------------
+# One map
+# ---------------------------------------------------------------------------------------------
 # Positions in the summary row (sweep.schema), frozen into the kernels as constants.
 N_SUMMARY = len(SUMMARY_FIELDS)
 S_LAMBDA = SUMMARY_INDEX["Lambda"]
@@ -362,3 +901,317 @@ def map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, sta
         score_sum = np.nan  # no trajectories: Lambda does not exist
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
     summary[S_COLLISION_CHANGED] = n_collision_changed
+
+
+# ---------------------------------------------------------------------------------------------
+# Many maps
+# ---------------------------------------------------------------------------------------------
+@njit(cache=True)
+def shared_field_extent(steps, ncols):
+    """(m_lo, number of offsets) of the shared field that serves every width of a cell."""
+    m_lo = 0
+    m_hi = 0
+    for k in range(steps.shape[0]):
+        m_lo = min(m_lo, -ncols[k] - steps[k])
+        m_hi = max(m_hi, ncols[k] - steps[k])
+    return m_lo, m_hi - m_lo + 1
+
+
+@njit(cache=True)
+def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
+    """The right finger's field over every offset any width of the cell needs."""
+    m_lo, nm = shared_field_extent(steps, ncols)
+    dxs = np.empty(nm)
+    for m in range(nm):
+        dxs[m] = (m + m_lo) * h
+    ys = np.empty(ny)
+    for j in range(ny):
+        ys[j] = finger.r + j * h
+    shared = new_finger_arrays(1, ny, nm)
+    finger_field_serial(dxs, ys, finger, solver, finger_blocks(effects), shared, 0)
+    return shared, m_lo, ys
+
+
+@njit(cache=True)
+def gather_fingers(shared, m_lo, step, ncol, ny, h):
+    """Both fingers of the map of palm half-width `step` grid steps, from the shared field:
+    (world xs, FingerArrays on (2, ny, 2 ncol + 1)). Copied row by row, one finger's field at a
+    time: reads and writes run along rows (column by column it took over a third of the
+    per-map work after the finger field)."""
+    nx = 2 * ncol + 1
+    xs = np.empty(nx)
+    for c in range(nx):
+        xs[c] = (c - ncol) * h
+    fingers = new_finger_arrays(2, ny, nx)
+    for side in range(2):
+        for j in range(ny):
+            gather_row(shared.mode[0, j], fingers.mode[side, j], side, m_lo, step, ncol)
+            gather_row(shared.t1[0, j], fingers.t1[side, j], side, m_lo, step, ncol)
+            gather_row(shared.t2[0, j], fingers.t2[side, j], side, m_lo, step, ncol)
+            gather_row(shared.k1[0, j], fingers.k1[side, j], side, m_lo, step, ncol)
+            gather_row(shared.k2[0, j], fingers.k2[side, j], side, m_lo, step, ncol)
+            gather_row(shared.tip_overlap[0, j], fingers.tip_overlap[side, j], side, m_lo, step,
+                       ncol)
+    return xs, fingers
+
+
+@njit(cache=True)
+def gather_row(src, dst, side, m_lo, step, ncol):
+    """One row of one finger field: world column c (i = c - ncol) of the right finger reads
+    offset i - step (a shift), of the left finger offset -i - step (a mirror)."""
+    if side == 1:
+        base = -ncol - step - m_lo
+        for c in range(dst.shape[0]):
+            dst[c] = src[base + c]
+    else:
+        base = ncol - step - m_lo
+        for c in range(dst.shape[0]):
+            dst[c] = src[base - c]
+
+
+@njit(cache=True)
+def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, want,
+                   manip, c, memo, memo_key, memo_next):
+    """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY); `want`
+    (n_w,): the widths whose maps are computed (out[k] of another stays as it was: the
+    refinement asks for a few widths of a cell, and a width's map costs far more than its share
+    of the field).
+
+    steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
+    i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
+    ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
+    receives the cell's manipulation metric data (MODEL 10). With finger_collision, `memo`
+    (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it) are this thread's memo
+    of meetings (records.SettledFingers), filled when `memo_next` (the next cell has the same
+    links), cleared when the links change.
+    """
+    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
+    if manip is not None:
+        ncol_max = 0
+        for k in range(ws.shape[0]):
+            ncol_max = max(ncol_max, ncols[k])
+        slots = ws.shape[0] * manip.a_commands.shape[0]
+        a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+        a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+        a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+        manip.n_entries[c] = 0
+        links, statics = shared_finger_links_and_statics(shared, finger)
+    elif effects.finger_collision is not None:
+        links = shared_finger_links(shared, finger)
+    memo_read = False
+    if effects.finger_collision is not None:
+        memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
+        if memo_next and not memo_read:
+            memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+            memo_key[0] = finger.l1
+            memo_key[1] = finger.l2
+    for k in range(ws.shape[0]):
+        if not want[k]:
+            continue
+        xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
+        outs = new_outcome_arrays(ny, xs.shape[0])
+        stack = np.empty(ny * xs.shape[0], dtype=np.int64)
+        hand = Hand(ws[k], f_left, f_right, h)
+        if effects.finger_collision is None:
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
+                             out[k], False)  # summaries only
+        else:  # the settled fingers' links, as gather_fingers reads the shared field
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
+                             out[k], False, True, True,
+                             SettledFingers(links, ncols[k] - steps[k] - m_lo, -1,
+                                            -ncols[k] - steps[k] - m_lo, 1, memo[k],
+                                            memo_read, memo_next))
+        if manip is not None:
+            collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
+                                   steps[k], ncols[k], ncol_max, k, manip, c, a_count, a_fx,
+                                   a_fy)
+    if manip is not None:
+        manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
+
+
+@njit(cache=True)
+def shared_finger_links(shared, finger):
+    """Per point of a cell's shared finger field, the link vectors l1 (cos t1, sin t1) and
+    l2 (cos phi, sin phi) in the finger's frame: (4, y, offset)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = np.empty((4, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
+            # what finger_polyline forms, so world coordinates match it bit for bit
+            l1c, l1s, l2c, l2s = link_vectors(shared.t1[0, j, m], shared.t2[0, j, m],
+                                              finger.l1, finger.l2)
+            links[0, j, m] = l1c
+            links[1, j, m] = l1s
+            links[2, j, m] = l2c
+            links[3, j, m] = l2s
+    return links
+
+
+@njit(cache=True)
+def shared_finger_links_and_statics(shared, finger):
+    """Per point of a cell's shared finger field, what every width's map reads from it for the
+    manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
+    unit tension (determined, resultant x, y)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = shared_finger_links(shared, finger)
+    statics = np.empty((3, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
+            st = finger_statics_at(shared, 0, j, m, finger)
+            statics[0, j, m] = 1.0 if st.determined else 0.0
+            statics[1, j, m] = st.resultant_x
+            statics[2, j, m] = st.resultant_y
+    return links, statics
+
+
+@njit(cache=True)
+def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
+                           ncol_max, k, manip, c, a_count, a_fx, a_fy):
+    """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
+    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9; not
+    where finger_collision stopped a finger on the other, D17: `fingers` are the map's, after
+    the effect). Elsewhere the fingers are the shared field's, whose links and statics are
+    precomputed. Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces
+    (each command F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose
+    buffers. Forces are the fingers' per-unit-tension resultants (world frame) times S_geo."""
+    capacity = manip.pose.shape[1]
+    n_lattice = 2 * manip.lattice_ncol[c] + 1
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for col in range(xs.shape[0]):
+            if outs.point_class[j, col] != REACHED or outs.equilibrium[j, col]:
+                continue
+            x = xs[col]
+            if touches_palm(x, y, hand.w, finger.r) or fingers_touch(fingers, j, col, finger):
+                continue
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared field's columns (gather_fingers)
+            src_r = i - step - m_lo
+            # cheapest first: statics (precomputed), containment, then the opening
+            if statics[0, j, src_l] == 0.0 or statics[0, j, src_r] == 0.0:
+                continue
+            left = polyline_from_links(0, hand.w, links[0, j, src_l], links[1, j, src_l],
+                                       links[2, j, src_l], links[3, j, src_l])
+            right = polyline_from_links(1, hand.w, links[0, j, src_r], links[1, j, src_r],
+                                        links[2, j, src_r], links[3, j, src_r])
+            if not part_contained(x, y, left, right):
+                continue
+            crossed = fingers_cross(left, right)
+            s_geo = cage_score(True, 0.0 if crossed else tip_clearance(left, right), finger.r)
+            if s_geo <= 0.0:
+                continue
+            lx = -statics[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics[2, j, src_l]
+            rx = statics[1, j, src_r]
+            ry = statics[2, j, src_r]
+            e = manip.n_entries[c]
+            if e < capacity:
+                manip.pose[c, e] = j * n_lattice + i + manip.lattice_ncol[c]
+                manip.fx[c, e] = (lx + rx) * s_geo
+                manip.fy[c, e] = (ly + ry) * s_geo
+                manip.width[c, e] = k
+                manip.crossed[c, e] = crossed
+            manip.n_entries[c] = e + 1
+            a = col - ncol + ncol_max
+            for f_left in manip.a_commands:
+                n = a_count[j, a]
+                a_fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                a_fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                a_count[j, a] = n + 1
+
+
+@njit(cache=True)
+def pose_radius_sum(count, fx, fy, pose_value, c):
+    """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
+    each pose's value also into pose_value[c] when that array has rows."""
+    keep = pose_value.shape[0] > 0
+    total = 0.0
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            value = 0.0
+            if n >= 3:
+                hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
+                value = inscribed_radius(hx, hy, hx.shape[0])
+            total += value
+            if keep:
+                pose_value[c, j, a] = value
+    return total
+
+
+@njit(cache=True)
+def cell_finger_model(cells, c, theta2_min, theta2_max):
+    return FingerModel(cells[c, 0], cells[c, 1], cells[c, 2], cells[c, 3], cells[c, 4],
+                       cells[c, 5], theta2_min, theta2_max)
+
+
+@njit(cache=True)
+def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                           theta2_max, solver, effects, out, want, manip, n_threads):
+    """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
+    want: bool (n, n_w), the maps to compute; manip: a ManipulationOut with one row per cell,
+    or None; n_threads: Numba's thread count (numba.get_num_threads(), which a cached kernel
+    cannot call)."""
+    memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
+    if effects.finger_collision is not None and cells.shape[0] > 0:
+        memo_shape = (n_threads, ws.shape[0], nys.max(), 2 * ncols.max() + 1, 5)
+    memo = np.empty(memo_shape)
+    memo_key = np.full((memo_shape[0], 2), np.nan)
+    # prange captures blocks only as arguments (records.blocks_of)
+    summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, out, want, manip, memo, memo_key,
+                              *effects[:])
+
+
+@njit(cache=True, parallel=True)
+def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                              theta2_max, solver, out, want, manip, memo, memo_key, b0=None,
+                              b1=None, b2=None, b3=None, b4=None, b5=None):
+    for c in prange(cells.shape[0]):
+        t = numba.get_thread_id() if memo.shape[0] > 0 else 0
+        memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
+                     and cells[c + 1, 1] == cells[c, 1])
+        summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
+                       blocks_of(b0, b1, b2, b3, b4, b5), ws, steps, ncols[c],
+                       nys[c], h, f_left, f_right, out[c], want[c], manip, c,
+                       memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
+                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),
+                       memo_next)
+
+
+@njit(cache=True)
+def cell_map(finger, solver, effects, w, step, ncol, ny, h, f_left, f_right, every_point,
+             with_forces):
+    """The full map of one width of a cell through the shared-field path (per-point outputs of
+    the sweep path): (xs, ys, fingers, outcomes, forces, summary row); the force arrays are
+    empty unless with_forces."""
+    steps = np.array([step])
+    ncols = np.array([ncol])
+    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
+    xs, fingers = gather_fingers(shared, m_lo, step, ncol, ny, h)
+    outs = new_outcome_arrays(ny, xs.shape[0])
+    stack = np.empty(ny * xs.shape[0], dtype=np.int64)
+    summary = np.empty(N_SUMMARY)
+    if with_forces:
+        forces = new_force_arrays(ny, xs.shape[0])
+        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
+                         outs, forces, stack, summary, every_point)
+    else:
+        forces = new_force_arrays(0, 0)  # same return type either way
+        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
+                         outs, None, stack, summary, every_point)
+    return xs, ys, fingers, outs, forces, summary
+
+
+@njit(cache=True)
+def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, ys, out):
+    """One map with each finger solved at its own offsets (palm half-width off the grid)."""
+    ny = ys.shape[0]
+    nx = xs.shape[0]
+    fingers = new_finger_arrays(2, ny, nx)
+    finger_field_serial(dx_left, ys, finger, solver, finger_blocks(effects), fingers, 0)
+    finger_field_serial(dx_right, ys, finger, solver, finger_blocks(effects), fingers, 1)
+    outs = new_outcome_arrays(ny, nx)
+    stack = np.empty(ny * nx, dtype=np.int64)
+    map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack, out,
+                     False)

@@ -6,7 +6,7 @@
   eject as grey levels of `V`, vertex as tan-tinted grey levels, unreached flat light grey
   (both fingers fully closed there, so `V` is one value), with the boundary of `P_j` outlined;
 - hatching where the part is in equilibrium, and the outline of the caged region;
-- downhill trajectories by the map's own rule (kernels/trajectory.py: sliding, grid8, or
+- downhill trajectories by the map's own rule (kernels/field.py: sliding, grid8, or
   continuous streamlines) from a sparse lattice of starting points of `P_j`;
 - the end points of the trajectories that move (caged, tip prehension, ejection: the first point
   outside `P_j`, stalled), sized by how many points of `P_j` end there;
@@ -33,10 +33,10 @@ from matplotlib.patches import Circle, FancyArrowPatch, Patch
 from ..compute.layout import kernel_records
 from ..kernels.records import Hand
 from ..kernels.streamline import max_streamline_steps, streamline_walk
-from ..kernels.trajectory import (
+from ..kernels.field import (
     SLIDE_REJOINS, downhill_neighbour, max_slide_points, slide_successor,
 )
-from ..kernels.part import finger_polyline
+from ..kernels.hand import finger_polyline
 from ..model import (EJECT, END_CAGED, INFEASIBLE, REACHED, STREAMLINE_STEP, UNREACHED,
                      VERTEX_POINT)
 from ..outputs import write_bytes_atomic
@@ -83,7 +83,7 @@ def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
 
 
 def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
-    """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectory.py, the
+    """World points (n, 2) of the sliding trajectory from `start` (kernels/field.py, the
     default rule): grid steps, and where every neighbour is uphill the slide on the true
     energy; and the flat index of the point where it ends (the map's `end_index`)."""
 

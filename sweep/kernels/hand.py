@@ -1,6 +1,12 @@
-"""finger_collision (MODEL 9, model-notes D14): the fingers close together and stop where they
-first meet.
+"""Two fingers and the part (MODEL 7-9): where the part sits between the fingers (equilibrium,
+containment, opening), and `finger_collision` (MODEL 9, model-notes D14): the fingers close
+together and stop where they first meet.
 
+*The part.*
+World frame (origin at the palm centre). Finger configurations come in each finger's own frame;
+`finger_polyline` places them (the left finger mirrored).
+
+*Finger collision.*
 Both fingers advance along their closing paths with a shared progress p (the joint travel
 t1 + (t2 - theta2_min)). The meeting is defined by a search: step p by
 `collision.progress_step` to the first node where the polylines cross (`fingers_cross`), then
@@ -23,16 +29,276 @@ bits faster (`resolve_collisions`, model-notes D14 "How a map finds the meeting"
    neighbour, and in the sweep a per-thread memo across the cells of one geometry group
    (records.SettledFingers). `collide` does one point anywhere, with the symmetric sweep as
    the first phase of its contact search.
+
+One module, not two (P14): the import chain from the CLI to the model stays within ten modules
+(tests/test_layers.py); the sections were the modules part and collision.
 """
 import math
-
 import numpy as np
+
 from numba import njit
 
-from ..model import FREE, PROXIMAL_ONLY, PROXIMAL_TIP, RANGE_TOL, TWO_PHALANX
-from .part import (TOUCH2, finger_polyline, fingers_cross, link_vectors,
-                   point_segment_distance2, polyline_from_links, sort_small)
+from ..model import (
+    DISTAL_ONLY,
+    FREE,
+    GAP_TOL,
+    PALM_TOL,
+    PROXIMAL_ONLY,
+    PROXIMAL_TIP,
+    RANGE_TOL,
+    TIP_ONLY,
+    TWO_PHALANX,
+)
 
+
+# ---------------------------------------------------------------------------------------------
+# The part between the fingers
+# ---------------------------------------------------------------------------------------------
+TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or segments touch
+BOX_GAP = 1e-9  # bounding boxes this far apart: the segments neither cross nor touch
+
+
+@njit(cache=True)
+def finger_polyline(side, t1, t2, l1, l2, w):
+    """World coordinates (Jx, Jy, Bx, By, Tx, Ty) of a finger; side 0 = left, 1 = right."""
+    l1c, l1s, l2c, l2s = link_vectors(t1, t2, l1, l2)
+    return polyline_from_links(side, w, l1c, l1s, l2c, l2s)
+
+
+@njit(cache=True)
+def link_vectors(t1, t2, l1, l2):
+    """The links as vectors in the finger's frame: l1 (cos t1, sin t1), l2 (cos phi, sin phi)."""
+    phi = t1 + t2
+    return l1 * math.cos(t1), l1 * math.sin(t1), l2 * math.cos(phi), l2 * math.sin(phi)
+
+
+@njit(cache=True)
+def polyline_from_links(side, w, l1c, l1s, l2c, l2s):
+    """finger_polyline from the link vectors l1 (cos t1, sin t1), l2 (cos phi, sin phi) in the
+    finger's frame (the sweep computes them once per shared field point). The left finger is
+    mirrored in x; sign * (l1 cos t1) equals (sign * l1) cos t1 exactly (sign = +-1)."""
+    sign = 1.0 if side == 1 else -1.0
+    jx = sign * 0.5 * w
+    bx = jx + sign * l1c
+    tx = bx + sign * l2c
+    return jx, 0.0, bx, l1s, tx, l1s + l2s
+
+
+@njit(cache=True)
+def add_contact(angles, n, normal_angle, cone_half_angle):
+    """Append the two friction-cone edges of a contact whose normal has this world angle."""
+    angles[n] = normal_angle - cone_half_angle
+    angles[n + 1] = normal_angle + cone_half_angle
+    return n + 2
+
+
+@njit(cache=True)
+def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
+    """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the
+    left)."""
+    if mode == PROXIMAL_ONLY or mode == TWO_PHALANX or mode == PROXIMAL_TIP:
+        a = t1 + 0.5 * math.pi  # angle of a_y in the finger frame
+        n = add_contact(angles, n, a if side == 1 else math.pi - a, cone_half_angle)
+    if mode == TWO_PHALANX or mode == DISTAL_ONLY:
+        b = t1 + t2 + 0.5 * math.pi  # angle of b_y
+        n = add_contact(angles, n, b if side == 1 else math.pi - b, cone_half_angle)
+    return n
+
+
+@njit(cache=True)
+def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half_angle):
+    """Add a finger's tip contact (tip_contact, model-notes D15): normal from the tip to the
+    part centre, world frame."""
+    if mode == TIP_ONLY or mode == PROXIMAL_TIP:
+        _, _, _, _, tx, ty = finger_polyline(side, t1, t2, l1, l2, w)
+        n = add_contact(angles, n, math.atan2(y - ty, x - tx), cone_half_angle)
+    return n
+
+
+@njit(cache=True)
+def origin_in_cone_hull(angles, n):
+    """MODEL 7: the origin lies in the convex hull of unit edge directions iff no angular gap > pi.
+
+    Sorts angles[:n] in place (n <= 10).
+    """
+    if n == 0:
+        return False
+    for i in range(n):
+        angles[i] = angles[i] % (2.0 * math.pi)
+    sort_small(angles, n)
+    largest_gap = angles[0] + 2.0 * math.pi - angles[n - 1]
+    for i in range(1, n):
+        largest_gap = max(largest_gap, angles[i] - angles[i - 1])
+    return largest_gap <= math.pi + GAP_TOL
+
+
+@njit(cache=True)
+def sort_small(values, n):
+    """Sort values[:n] in place, ascending (insertion sort: a handful of values, where np.sort
+    costs more than the sorting)."""
+    for i in range(1, n):
+        a = values[i]
+        j = i - 1
+        while j >= 0 and values[j] > a:
+            values[j + 1] = values[j]
+            j -= 1
+        values[j + 1] = a
+
+
+@njit(cache=True)
+def touches_palm(x, y, w, r):
+    """The part rests on the palm (MODEL 7): |y - r| <= PALM_TOL and |x| <= w/2 + PALM_TOL."""
+    return abs(y - r) <= PALM_TOL and abs(x) <= 0.5 * w + PALM_TOL
+
+
+@njit(cache=True)
+def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r, l1, l2,
+                        tip):
+    """Cone-hull equilibrium of the part with both fingers' tangent contacts, their tip contacts
+    (tip_contact: `tip` not None) and the palm.
+
+    `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
+    """
+    cone = math.atan(mu)
+    n = finger_contact_normals(angles, 0, 0, mode_l, t1_l, t2_l, cone)
+    n = finger_contact_normals(angles, n, 1, mode_r, t1_r, t2_r, cone)
+    if tip is not None:
+        n = tip_contact_normal(angles, n, 0, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone)
+        n = tip_contact_normal(angles, n, 1, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone)
+    if touches_palm(x, y, w, r):
+        n = add_contact(angles, n, 0.5 * math.pi, cone)
+    if n < 4:
+        return False
+    return origin_in_cone_hull(angles, n)
+
+
+@njit(cache=True)
+def _edge_toggles(px, py, ax, ay, bx, by):
+    """PNPOLY's crossing rule for one polygon edge (model-notes D5)."""
+    return (ay > py) != (by > py) and px < (bx - ax) * (py - ay) / (by - ay) + ax
+
+
+@njit(cache=True)
+def part_contained(px, py, left, right):
+    """The part centre strictly inside the polygon J_L, B_L, T_L, T_R, B_R, J_R.
+
+    Even-odd (PNPOLY) test; a centre within RANGE_TOL of the boundary (e.g. exactly on the mouth
+    segment T_L-T_R) is not contained, so boundary points are decided by a tolerance, not by
+    round-off (model-notes D5).
+    """
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    inside = False
+    if _edge_toggles(px, py, jlx, jly, blx, bly):
+        inside = not inside
+    if _edge_toggles(px, py, blx, bly, tlx, tly):
+        inside = not inside
+    if _edge_toggles(px, py, tlx, tly, trx, try_):
+        inside = not inside
+    if _edge_toggles(px, py, trx, try_, brx, bry):
+        inside = not inside
+    if _edge_toggles(px, py, brx, bry, jrx, jry):
+        inside = not inside
+    if _edge_toggles(px, py, jrx, jry, jlx, jly):
+        inside = not inside
+    if not inside:
+        return False
+    boundary = min(point_segment_distance2(px, py, jlx, jly, blx, bly),
+                   point_segment_distance2(px, py, blx, bly, tlx, tly),
+                   point_segment_distance2(px, py, tlx, tly, trx, try_),
+                   point_segment_distance2(px, py, trx, try_, brx, bry),
+                   point_segment_distance2(px, py, brx, bry, jrx, jry),
+                   point_segment_distance2(px, py, jrx, jry, jlx, jly))
+    return boundary > TOUCH2
+
+
+@njit(cache=True)
+def point_segment_distance2(px, py, ax, ay, bx, by):
+    """Squared distance from a point to a segment."""
+    vx = bx - ax
+    vy = by - ay
+    length2 = vx * vx + vy * vy
+    s = 0.0
+    if length2 > 0.0:
+        s = min(max(((px - ax) * vx + (py - ay) * vy) / length2, 0.0), 1.0)
+    dx = px - (ax + s * vx)
+    dy = py - (ay + s * vy)
+    return dx * dx + dy * dy
+
+
+@njit(cache=True)
+def point_segment_distance(px, py, ax, ay, bx, by):
+    return math.sqrt(point_segment_distance2(px, py, ax, ay, bx, by))
+
+
+@njit(cache=True)
+def _orientation(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@njit(cache=True)
+def segments_intersect(ax, ay, bx, by, cx, cy, dx, dy):
+    """Segments AB and CD cross, or touch within RANGE_TOL (model-notes D5).
+
+    Segments whose bounding boxes are more than BOX_GAP apart do neither (the answer the
+    full test gives, found without it)."""
+    if (max(ax, bx) < min(cx, dx) - BOX_GAP or max(cx, dx) < min(ax, bx) - BOX_GAP
+            or max(ay, by) < min(cy, dy) - BOX_GAP or max(cy, dy) < min(ay, by) - BOX_GAP):
+        return False
+    if (_orientation(ax, ay, bx, by, cx, cy) * _orientation(ax, ay, bx, by, dx, dy) < 0.0
+            and _orientation(cx, cy, dx, dy, ax, ay) * _orientation(cx, cy, dx, dy, bx, by) < 0.0):
+        return True
+    return min(point_segment_distance2(ax, ay, cx, cy, dx, dy),
+               point_segment_distance2(bx, by, cx, cy, dx, dy),
+               point_segment_distance2(cx, cy, ax, ay, bx, by),
+               point_segment_distance2(dx, dy, ax, ay, bx, by)) <= TOUCH2
+
+
+@njit(cache=True)
+def fingers_cross(left, right):
+    """The two fingers' polylines intersect (cross or touch), not counting a shared base.
+
+    With w = 0 both proximal links start at the palm centre; they meet elsewhere only if they
+    overlap, i.e. one distal joint lies on the other proximal link.
+    """
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    if (jlx - jrx) ** 2 + (jly - jry) ** 2 <= TOUCH2:
+        proximal_pair = (point_segment_distance2(blx, bly, jrx, jry, brx, bry) <= TOUCH2
+                         or point_segment_distance2(brx, bry, jlx, jly, blx, bly) <= TOUCH2)
+    else:
+        proximal_pair = segments_intersect(jlx, jly, blx, bly, jrx, jry, brx, bry)
+    return (proximal_pair
+            or segments_intersect(jlx, jly, blx, bly, brx, bry, trx, try_)
+            or segments_intersect(blx, bly, tlx, tly, jrx, jry, brx, bry)
+            or segments_intersect(blx, bly, tlx, tly, brx, bry, trx, try_))
+
+
+@njit(cache=True)
+def mouth_opening(left, right):
+    """L_open (MODEL 8): the largest part that could escape between the fingertips; 0 if the
+    fingers' polylines intersect."""
+    if fingers_cross(left, right):
+        return 0.0
+    return tip_clearance(left, right)
+
+
+@njit(cache=True)
+def tip_clearance(left, right):
+    """L_open of fingers known not to intersect: the least tip-to-tip and tip-to-finger distance."""
+    jlx, jly, blx, bly, tlx, tly = left
+    jrx, jry, brx, bry, trx, try_ = right
+    opening = math.sqrt((tlx - trx) ** 2 + (tly - try_) ** 2)
+    opening = min(opening, point_segment_distance(tlx, tly, jrx, jry, brx, bry))
+    opening = min(opening, point_segment_distance(tlx, tly, brx, bry, trx, try_))
+    opening = min(opening, point_segment_distance(trx, try_, jlx, jly, blx, bly))
+    opening = min(opening, point_segment_distance(trx, try_, blx, bly, tlx, tly))
+    return opening
+
+
+# ---------------------------------------------------------------------------------------------
+# Finger collision
+# ---------------------------------------------------------------------------------------------
 MAX_PROGRESS_STEPS = 10_000_000  # defence in depth, as for the reconfiguration path
 
 
