@@ -26,8 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sweep.compute.batch import caging_areas
 from sweep.runs.refine import (
-    compute_maps, design_table, equal_r_classes, part_table, screened_matrix, select_contenders,
+    design_table, equal_r_classes, part_table, screened_matrix, select_contenders,
     separate,
 )
 from sweep.config.scene import RefineSettings, grid_points
@@ -68,7 +69,7 @@ def main(argv=None) -> None:
                 got, seconds[k] = z["values"], float(z["seconds"])
         else:
             t = time.perf_counter()
-            got = compute_maps(scene, designs, parts, keys, h)
+            got = caging_areas(scene, designs, parts, keys, h)
             seconds[k] = time.perf_counter() - t
             np.savez(cache, keys=keys, values=got, seconds=seconds[k])
         v = np.full_like(screened, np.nan)

@@ -274,7 +274,7 @@ def test_killed_refinement_resumes_to_identical_values(refined, tmp_path, monkey
     screened = tmp_path / "screened.h5"
     monkeypatch.setattr(rf, "BATCH_POINTS", 20_000)
     calls = {"n": 0}
-    real = rf.compute_maps
+    real = rf.caging_areas
 
     def dying(*a, **k):
         calls["n"] += 1
@@ -282,13 +282,13 @@ def test_killed_refinement_resumes_to_identical_values(refined, tmp_path, monkey
             raise KeyboardInterrupt
         return real(*a, **k)
 
-    monkeypatch.setattr(rf, "compute_maps", dying)
+    monkeypatch.setattr(rf, "caging_areas", dying)
     settings = RefineSettings(levels=3, bound=0.3, min_contenders=2)
     with pytest.raises(KeyboardInterrupt):
         rf.refine_store(screened, settings, progress=False)
     work = rf.refine_dir(screened)
     assert len(list(work.glob("level-*.npz"))) == 3
-    monkeypatch.setattr(rf, "compute_maps", real)
+    monkeypatch.setattr(rf, "caging_areas", real)
     res = rf.refine_store(screened, settings, progress=False)
     assert res.refinement.computed_maps < sum(res.refinement.level_maps)
     assert not work.exists()

@@ -13,10 +13,11 @@ import numpy as np
 
 from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
+from ..config.scene import Scene, grid_points
 from ..kernels.field import cell_map, summarize_cells_shared, summarize_direct_map
 from ..kernels.records import Hand, ManipulationOut
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
-from ..schema import SUMMARY_FIELDS
+from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .manipulation import ManipulationChunk, PartReduction
 from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
 
@@ -227,3 +228,72 @@ def scenario_a_pose_values(candidate, part, widths, h: float, limits: Limits = L
     x = (np.arange(nx) - nx // 2) * h
     y = part[0] + np.arange(ny) * h
     return x, y, values, float(chunk.a_metric[0])
+
+
+# ---------------------------------------------------------------------------------------------
+# Maps of the refinement stage: a few widths of many cells (sweep.runs.refine)
+# ---------------------------------------------------------------------------------------------
+def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Per map (part, design) of `keys`, its cell: (command, l1, l2, r1, r2, r index, mu index)
+    as a row of float64 (n, 7); maps of one cell share the finger field."""
+    p, d = parts[keys[:, 0]], designs[keys[:, 1]]
+    return np.column_stack([p[:, 2], d[:, :4], p[:, 0], p[:, 1]]).astype(np.float64)
+
+
+def caging_areas(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
+                 h: float) -> np.ndarray:
+    """Caging area of the maps `keys` ((n, 2): part, design) at spacing h, with the scene's
+    limits, accuracy and effects, by the sweep's own path (`batch.summarize_cells`): each cell
+    (design without w, part, command) once, at the widths of its maps in `keys` (one finger
+    field serves them all); one call per (command, set of widths), its cells in parallel in the
+    order of their first map in `keys`. (Measured against one call per width and against whole
+    cells at every width: docs/performance.md.)"""
+    out = np.empty(keys.shape[0])
+    index: dict = {}
+    which = np.array([index.setdefault(tuple(c), len(index))
+                      for c in cell_keys(designs, parts, keys)], dtype=np.int64)
+    cells = np.array(list(index), dtype=np.float64).reshape(-1, 7)
+    w_index = keys[:, 1] % scene.widths.size           # designs in store order: w fastest
+    widths_of = [set() for _ in range(cells.shape[0])]
+    for c, wi in zip(which, w_index):
+        widths_of[c].add(int(wi))
+    groups: dict = {}
+    for c in range(cells.shape[0]):
+        groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
+    # A call with fewer cells than threads leaves threads idle: the small groups of a command
+    # run as one call at the union of their widths, each cell computing only the maps of its own
+    # widths (`want`; the shared field spans the union, a small part of the work).
+    threads = numba.get_num_threads()
+    merged: dict = {}
+    for (ci, ws), rows in list(groups.items()):
+        if len(rows) < 2 * threads:
+            del groups[(ci, ws)]
+            union, members = merged.get(ci, (set(), []))
+            merged[ci] = (union | set(ws), members + rows)
+    for ci, (union, rows) in merged.items():
+        groups.setdefault((ci, tuple(sorted(union))), []).extend(sorted(rows))
+    r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
+    calls = []
+    for (ci, ws), rows in groups.items():
+        # Numba's OpenMP layer gives each thread one contiguous block of a prange's cells (no
+        # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
+        # of `threads` cells of similar cost, largest first, keep every thread busy.
+        cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
+                                r_vals[int(cells[c, 5])], h) for wi in widths_of[c])
+                for c in rows]
+        rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
+        calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
+    for ci, ws, rows in calls:
+        c = cells[rows]
+        want = np.array([[wi in widths_of[r] for wi in ws] for r in rows], dtype=np.bool_)
+        res = summarize_cells(
+            np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
+            scene.widths[list(ws)], scene.commands[ci], h, scene.limits, scene.accuracy,
+            scene.effects, want)
+        at = np.full(cells.shape[0], -1)
+        at[rows] = np.arange(len(rows))
+        mine = np.flatnonzero(at[which] >= 0)
+        column = {wi: k for k, wi in enumerate(ws)}
+        out[mine] = res[at[which[mine]], [column[int(wi)] for wi in w_index[mine]],
+                        SUMMARY_INDEX["caging_area"]]
+    return out

@@ -40,8 +40,8 @@ a work directory beside the store (`STORE.refine/`, `sweep.runs.rundir.refine_di
 the finished batches and computes the rest. The refined values are then added to the store
 (`sweep.storage.store.add_refinement`), which is rewritten atomically.
 
-Imports: scene, batch (one map's summaries at a given h), store, rundir, runner (threads),
-outputs. `sweep run` and `sweep merge` call `refine_store` after writing their store.
+Imports: scene, batch (the caging areas of a level's maps, `batch.caging_areas`), store,
+rundir, outputs. `sweep run` and `sweep merge` call `refine_store` after writing their store.
 """
 from __future__ import annotations
 
@@ -56,22 +56,18 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numba
 import numpy as np
 
 from .. import __version__
-from ..compute import batch
-from ..compute.batch import numba_threads
+from ..compute.batch import caging_areas, cell_keys, numba_threads
 from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
 
 from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
-from ..schema import SUMMARY_INDEX
 from ..storage.refined import ROLE, STATUS, equal_r_classes
 from ..config.parse import scene_from_frozen
 from ..storage.store import StoreError, add_refinement, read_store
 
-CAGING_AREA = SUMMARY_INDEX["caging_area"]
 #: Grid points per work file (the maps of a level, whole cells): a few seconds of compute on two
 #: cores, so a kill loses little.
 BATCH_POINTS = 10_000_000
@@ -165,71 +161,6 @@ def lead(now: np.ndarray, b: int) -> float:
 # ---------------------------------------------------------------------------------------------
 # Maps at a level
 # ---------------------------------------------------------------------------------------------
-def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
-    """Per map (part, design) of `keys`, its cell: (command, l1, l2, r1, r2, r index, mu index)
-    as a row of float64 (n, 7); maps of one cell share the finger field."""
-    p, d = parts[keys[:, 0]], designs[keys[:, 1]]
-    return np.column_stack([p[:, 2], d[:, :4], p[:, 0], p[:, 1]]).astype(np.float64)
-
-
-def compute_maps(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
-                 h: float) -> np.ndarray:
-    """Caging area of the maps `keys` ((n, 2): part, design) at spacing h, with the scene's
-    limits, accuracy and effects, by the sweep's own path (`batch.summarize_cells`): each cell
-    (design without w, part, command) once, at the widths of its maps in `keys` (one finger
-    field serves them all); one call per (command, set of widths), its cells in parallel in the
-    order of their first map in `keys`. (Measured against one call per width and against whole
-    cells at every width: docs/performance.md.)"""
-    out = np.empty(keys.shape[0])
-    index: dict = {}
-    which = np.array([index.setdefault(tuple(c), len(index))
-                      for c in cell_keys(designs, parts, keys)], dtype=np.int64)
-    cells = np.array(list(index), dtype=np.float64).reshape(-1, 7)
-    w_index = keys[:, 1] % scene.widths.size           # designs in store order: w fastest
-    widths_of = [set() for _ in range(cells.shape[0])]
-    for c, wi in zip(which, w_index):
-        widths_of[c].add(int(wi))
-    groups: dict = {}
-    for c in range(cells.shape[0]):
-        groups.setdefault((int(cells[c, 0]), tuple(sorted(widths_of[c]))), []).append(c)
-    # A call with fewer cells than threads leaves threads idle: the small groups of a command
-    # run as one call at the union of their widths, each cell computing only the maps of its own
-    # widths (`want`; the shared field spans the union, a small part of the work).
-    threads = numba.get_num_threads()
-    merged: dict = {}
-    for (ci, ws), rows in list(groups.items()):
-        if len(rows) < 2 * threads:
-            del groups[(ci, ws)]
-            union, members = merged.get(ci, (set(), []))
-            merged[ci] = (union | set(ws), members + rows)
-    for ci, (union, rows) in merged.items():
-        groups.setdefault((ci, tuple(sorted(union))), []).extend(sorted(rows))
-    r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
-    calls = []
-    for (ci, ws), rows in groups.items():
-        # Numba's OpenMP layer gives each thread one contiguous block of a prange's cells (no
-        # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
-        # of `threads` cells of similar cost, largest first, keep every thread busy.
-        cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
-                                r_vals[int(cells[c, 5])], h) for wi in widths_of[c])
-                for c in rows]
-        rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
-        calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
-    for ci, ws, rows in calls:
-        c = cells[rows]
-        want = np.array([[wi in widths_of[r] for wi in ws] for r in rows], dtype=np.bool_)
-        res = batch.summarize_cells(
-            np.column_stack([c[:, 1:5], r_vals[c[:, 5].astype(int)], mu_vals[c[:, 6].astype(int)]]),
-            scene.widths[list(ws)], scene.commands[ci], h, scene.limits, scene.accuracy,
-            scene.effects, want)
-        at = np.full(cells.shape[0], -1)
-        at[rows] = np.arange(len(rows))
-        mine = np.flatnonzero(at[which] >= 0)
-        column = {wi: k for k, wi in enumerate(ws)}
-        out[mine] = res[at[which[mine]], [column[int(wi)] for wi in w_index[mine]], CAGING_AREA]
-    return out
-
-
 def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
                   h: float) -> list[np.ndarray]:
     """A level's maps in a fixed order, cut into batches of whole cells (all their maps of the
@@ -521,7 +452,7 @@ def _run_level(scene, designs, parts, keys, h, label, work, progress):
         for b in todo:
             bk = batches[b]
             t = time.perf_counter()
-            v = compute_maps(scene, designs, parts, bk, h)
+            v = caging_areas(scene, designs, parts, bk, h)
             dt = time.perf_counter() - t
             _save_batch(batch_path(work, label, b), bk, v, dt)
             got.update(zip(map(tuple, bk.tolist()), v.tolist()))
