@@ -618,6 +618,11 @@ SWEEP = Path(sys.executable).parent / "sweep"      # the installed command (bin/
 #: Python's own initialisation, before any line of bin/sweep runs: a Ctrl-C while it creates
 #: the standard streams ends in its "Fatal Python error" (docs/sweeps.md, "Failure modes").
 PYTHON_CORE_INIT = "Python runtime state: core initialized"
+#: ... and a Ctrl-C after that, while Python compiles the launcher's code, is raised by the
+#: check for signals at its very first instruction, before its `try`: Python prints this and
+#: ends by the signal (found by a longer spray; docs/sweeps.md).
+PYTHON_FIRST_INSTRUCTION = ['Traceback (most recent call last):',
+                            '  File "<string>", line 0, in <module>', 'KeyboardInterrupt']
 INTERRUPT_CASES = 200 if LONG else 6
 
 
@@ -644,6 +649,9 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
         if PYTHON_CORE_INIT in err:
             outcomes["python core init"] += 1
             continue
+        if proc.returncode == -signal.SIGINT and lines == PYTHON_FIRST_INSTRUCTION:
+            outcomes["python before the launcher's first line"] += 1
+            continue
         assert "Traceback" not in err, err
         if proc.returncode == 0:
             outcomes["finished"] += 1
@@ -662,6 +670,44 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
         assert not list(tmp_path.glob(f".o{k}.h5.tmp*"))
     OUTCOMES.update({f"ctrl-c:{k}": v for k, v in outcomes.items()})
     assert outcomes["interrupted"] > 0
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_an_interrupt_in_a_weakref_callback_is_delivered_again_not_printed(signame):
+    """A Ctrl-C (or SIGTERM) that lands in a weakref callback, where Python cannot raise it,
+    printed "Exception ignored in: <function ...>" with a traceback and was then lost (found
+    by the long profile's Ctrl-C spray: a callback of a cache cleared while modules load).
+    The program's unraisable hook has it delivered again, to the code that runs next."""
+    code = f"""
+import signal, sys, time, weakref
+import sweep.program as program
+from sweep.cli.common import Terminated
+try:
+    program.main(["--version"])                # installs the hook, then drops signals
+except SystemExit:
+    pass
+assert sys.unraisablehook is program._unraisable
+signal.signal(signal.SIGINT, signal.default_int_handler)   # as while a command runs
+signal.signal(signal.SIGTERM, program._terminated)
+class Cached:
+    pass
+def callback(ref):
+    raise Terminated() if {signame!r} == "SIGTERM" else KeyboardInterrupt()
+obj = Cached()
+ref = weakref.ref(obj, callback)
+try:
+    del obj                                    # the callback runs and raises here
+    for _ in range(500):
+        time.sleep(0.01)
+    print("lost")
+except KeyboardInterrupt as exc:
+    print("delivered again as", type(exc).__name__)
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=_clean_env(), timeout=60)
+    assert proc.stderr == "", proc.stderr
+    expected = "_Terminated" if signame == "SIGTERM" else "KeyboardInterrupt"
+    assert proc.stdout.splitlines()[-1] == f"delivered again as {expected}"
 
 
 def test_a_refusal_in_a_real_process_is_one_line_on_stderr_and_exit_2(tmp_path):
