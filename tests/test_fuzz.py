@@ -772,7 +772,8 @@ def test_a_refused_plot_leaves_no_folder_of_the_map_behind(tmp_path):
     """Found by the long profile: `sweep map --out NEW/DEEPER/x.h5 --plot FILE/x.png` created
     NEW/DEEPER for the map, then refused the plot (a file in the way) with exit 2."""
     (tmp_path / "z-blocker").write_text("a file")   # claimed after the map (by path)
-    res = fz.invoke(main, ["map", *fz.MAP_ARGS, "--out", str(tmp_path / "a-new" / "deeper" / "x.h5"),
+    out = tmp_path / "a-new" / "deeper" / "x.h5"
+    res = fz.invoke(main, ["map", *fz.MAP_ARGS, "--out", str(out),
                            "--plot", str(tmp_path / "z-blocker" / "x.png")], cwd=tmp_path)
     assert res.exit_code == 2, res.output
     assert "z-blocker is a file, not a directory" in res.output
