@@ -119,7 +119,7 @@ def run_tests(copy: Path, tests, timeout: int) -> tuple[str, str, float]:
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
     env.pop("PYTHONPATH", None)
     args = [sys.executable, "-c", BOOTSTRAP, str(copy), "-x", "-q", "-p", "no:cacheprovider",
-            "--no-header", "-rf", *tests]
+            "--no-header", "-rfE", *tests]
     started = time.perf_counter()
     try:
         res = subprocess.run(args, cwd=copy, env=env, capture_output=True, text=True,

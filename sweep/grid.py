@@ -71,8 +71,14 @@ def grid_index_bounds(design: Design, part: Part, grid: Grid) -> tuple[int, int,
             raise ModelInputError(f"ylim must have YMIN <= YMAX, got {grid.ylim!r}")
         j0 = math.ceil((ymin - part.r) / h - GRID_TOL)
         j1 = math.floor((ymax - part.r) / h + GRID_TOL)
-    if i1 < i0 or j1 < j0:
-        raise ModelInputError(f"the grid window holds no grid point at h = {h}")
+    # Grid points lie at x = i h and y = r + j h: a window narrower than h can fall between them.
+    if i1 < i0:
+        raise ModelInputError(f"--xlim {grid.xlim[0]:g} {grid.xlim[1]:g} holds no grid column "
+                              f"at h = {h:g} (columns at x = i h): widen --xlim or change --h")
+    if j1 < j0:
+        raise ModelInputError(f"--ylim {grid.ylim[0]:g} {grid.ylim[1]:g} holds no grid row at "
+                              f"h = {h:g} (rows at y = r + j h, r = {part.r:g}): widen --ylim or "
+                              "change --h")
     return i0, i1, j0, j1
 
 

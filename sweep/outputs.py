@@ -97,15 +97,35 @@ def temp_path(path: Path) -> Path:
     return path.with_name(f".{path.name}{TMP_TAG}{HOST}.{os.getpid()}")
 
 
+def _refuse_file_in_the_way(path: Path) -> None:
+    """OutputError if a file stands where a folder of `path` must be: say which one."""
+    parent = Path(path).parent
+    for p in (parent, *parent.parents):
+        if p.exists() and not p.is_dir():
+            raise OutputError(f"{path}: {p} is a file, not a directory")
+        if p.exists():
+            break
+
+
 def make_parent(path: Path) -> None:
     parent = Path(path).parent
     with os_errors_named(parent, "cannot create folder"):
-        for p in (parent, *parent.parents):     # a file in the way: say which one
-            if p.exists() and not p.is_dir():
-                raise OutputError(f"{path}: {p} is a file, not a directory")
-            if p.exists():
-                break
+        _refuse_file_in_the_way(path)
         parent.mkdir(parents=True, exist_ok=True)
+
+
+def check_output_file(path: str | os.PathLike, overwrite: bool = True) -> None:
+    """What `claim_output` refuses for a file, checked without creating anything: a command
+    with several outputs checks them all first, so that a refusal of one does not leave the
+    folders of another behind (found by the fuzz campaign: `sweep map --out NEW/x.h5 --plot
+    FILE/x.png`)."""
+    path = Path(path)
+    with os_errors_named(path, "cannot write"):
+        _refuse_file_in_the_way(path)
+        if path.is_dir():
+            raise OutputError(f"{path}: is a directory")
+        if path.exists() and not overwrite:
+            raise OutputError(f"{path}: exists; pass --overwrite to replace it")
 
 
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:

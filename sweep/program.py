@@ -6,6 +6,7 @@ well; only Python's own start-up, before this module runs, is out of reach.
 """
 from __future__ import annotations
 
+import _thread
 import contextlib
 import signal
 import sys
@@ -16,12 +17,39 @@ EXIT_INTERRUPTED = 130
 class _Terminated(KeyboardInterrupt):
     """SIGTERM while the CLI is imported."""
 
+    signum = signal.SIGTERM
+
+
+def _unraisable(unraisable) -> None:
+    """`sys.unraisablehook`: an interrupt that hit a finalizer or a weakref callback (Numba's
+    and the standard library's caches clear themselves through these while modules load) is
+    delivered again instead of printed.
+
+    Python cannot raise an exception there: it prints "Exception ignored in: <function ...>"
+    with the KeyboardInterrupt's traceback and goes on as if Ctrl-C had not been pressed
+    (found by the long fuzz profile's Ctrl-C spray). A short-lived thread delivers the same
+    signal to the main thread again (`_thread.interrupt_main`); it lands after this hook has
+    returned, in the code that runs next, whose handling makes it one line and exit 130. From
+    this hook itself the signal's handler would run before the hook returns, and raise in it."""
+    if not (isinstance(unraisable.exc_type, type)
+            and issubclass(unraisable.exc_type, KeyboardInterrupt)):
+        sys.__unraisablehook__(unraisable)
+        return
+    signum = getattr(unraisable.exc_value, "signum", signal.SIGINT)
+    try:
+        _thread.start_new_thread(_thread.interrupt_main, (signum,))
+    except (KeyboardInterrupt, RuntimeError):
+        # Interrupted here (the thread is started: the interrupt is on its way), or the
+        # interpreter is shutting down (nothing left to interrupt).
+        pass
+
 
 def _terminated(signum, frame):
     raise _Terminated()
 
 
 def main(argv=None) -> None:
+    sys.unraisablehook = _unraisable
     with contextlib.suppress(ValueError):              # not the main thread
         signal.signal(signal.SIGTERM, _terminated)
     try:

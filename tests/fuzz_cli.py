@@ -168,6 +168,15 @@ class Library:
                      ["map", *MAP_ARGS, "--out", root / "map.h5", "--plot", root / "map.png"]):
             res = invoke(group, args)
             assert res.exit_code == 0, (args, res.output)
+        # Load (or compile) the kernels a case may need here, as the user who owns the kernel
+        # cache: cases with file modes run as `nobody` (unprivileged), who cannot read root's
+        # cache, and a kernel first called in such a case failed on its cache file (the forces'
+        # arrays, when test_fuzz.py ran alone).
+        warm = root / "warm"
+        warm.mkdir()
+        res = invoke(group, ["map", *MAP_ARGS, "--forces", "--out", warm / "forces.h5"])
+        assert res.exit_code == 0, res.output
+        shutil.rmtree(warm)
         lib.files["store"] = root / "store.h5"
         lib.files["rundir"] = root / "rundir"
         lib.files["shard"] = sorted((root / "rundir").glob("shard-*.h5"))[0]

@@ -361,6 +361,27 @@ def test_tip_path_ends_on_a_proximal_stop_passed_within_one_step():
     assert math.hypot(t[0] - dx, t[1] - dy) == pytest.approx(r, rel=1e-9)
 
 
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason="open: a tip-contact finger stopped by the other "
+                   "(finger_collision) is left with its distal link through the part "
+                   "(docs/stability.md; kernels/hand.py)")
+def test_a_finger_stopped_by_the_other_with_tip_contact_keeps_its_links_out_of_the_part():
+    """Found by the long profile (2026-11-25): finger_collision and tip_contact on, a small part
+    (r = 0.1225, mu = 0): at one grid point the left finger, reported free (mode 0) at
+    theta = (1.1267, 0.8810), has its distal link 0.1117 from the part's centre (r = 0.1225).
+    Either effect alone, or no such point: the invariant holds."""
+    case = dict(design=Design(l1=0.9998594712341624, l2=0.08062580376912969, r1=1.0, r2=1.0,
+                              w=0.12174083791851716),
+                part=Part(r=0.12248872394525123, mu=0.0),
+                command=Command(f_left=1.0, f_right=6.0396353060967475e-05),
+                limits=Limits(theta2_min_deg=-5.0, theta2_max_deg=160.46620731538695),
+                accuracy=Accuracy(reconfig_step=0.003451821595142421,
+                                  root_tol=9.349986920991872e-09, trajectory="continuous"),
+                effects=Effects(friction=True, tip_contact=True, finger_collision=True),
+                outputs=Outputs(), grid=Grid(h=0.12029739989485433))
+    check_map(case, run(case))
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())

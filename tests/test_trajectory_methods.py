@@ -120,6 +120,30 @@ def test_streamlines_down_a_tilted_plane_leave_p_j_in_their_row():
     assert np.all(end_i == nx - 1)
 
 
+@pytest.mark.parametrize("step", [0.5, 0.1, 0.02])
+def test_streamlines_down_a_diagonal_plane_are_not_stalled_on_their_way(step):
+    """E = -(x + y): streamlines run north-east, each cell's diagonal (sqrt 2 grid steps of
+    travel near one grid point), and leave P_j at the UNREACHED last row or column, whatever
+    the integrator's step. Travel near one grid point counts as circling only past STAY_LIMIT
+    grid steps (found by mutation testing: a limit of one grid step went unnoticed, though it
+    stalls every diagonal streamline whose step is below about 0.7)."""
+    n = 8
+    j, i = np.mgrid[0:n, 0:n]
+    cls = np.full((n, n), REACHED, dtype=np.int8)
+    cls[-1, :] = UNREACHED
+    cls[:, -1] = UNREACHED
+    outs = outcomes(-1.0 * (i + j), point_class=cls)
+    lam = streamline_ends(outs, 0.05, stack_for(outs), step)
+    reached = cls == REACHED
+    assert lam == 0.0
+    assert np.all(outs.end_state[reached] == END_EJECTION)
+    # each ends on the diagonal it started on, where it meets the last row or column
+    start_i, start_j = i[reached], j[reached]
+    end_i, end_j = outs.end_index[reached] % n, outs.end_index[reached] // n
+    last = np.minimum(n - 1 - start_i, n - 1 - start_j)
+    assert np.all(end_i == start_i + last) and np.all(end_j == start_j + last)
+
+
 def test_streamlines_stall_on_a_flat_energy():
     outs = outcomes(np.zeros((4, 5)))
     streamline_ends(outs, 0.1, stack_for(outs), 0.5)

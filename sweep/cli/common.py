@@ -33,6 +33,8 @@ class UserError(click.ClickException):
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a batch system's time limit or `kill`) handled like Ctrl-C."""
 
+    signum = signal.SIGTERM     # the signal to deliver again (sweep.program._unraisable)
+
 
 @contextlib.contextmanager
 def sigterm_as_interrupt():

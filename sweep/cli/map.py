@@ -94,7 +94,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     from ..model import (
         Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,
     )
-    from ..outputs import claim_output
+    from ..outputs import check_output_file, claim_output
     from ..runs.runner import RunError, numba_threads, resolve_threads
 
     design = Design(l1, l2, r1, r2, w)
@@ -127,8 +127,11 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
 
     # Both outputs are checked and locked before the map is computed.
     # (In path order, so two waiting commands with swapped --out/--plot cannot deadlock.)
+    outputs_in_order = sorted({out, plot_path} - {None}, key=lambda p: str(real_path(p)))
+    for path in outputs_in_order:       # all refusals before any folder is created
+        check_output_file(path, overwrite=overwrite)
     with contextlib.ExitStack() as claimed:
-        for path in sorted({out, plot_path} - {None}, key=lambda p: str(real_path(p))):
+        for path in outputs_in_order:
             claimed.enter_context(claim_output(path, overwrite=overwrite, wait=wait))
         with numba_threads(threads):
             # Load (or, the first time, compile) the kernels on a tiny map so the timing
