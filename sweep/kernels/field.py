@@ -149,7 +149,7 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     bound of the true one (a finger stopped on the other has angles no larger than its
     settled ones, and the energy falls as either angle grows: MODEL 6 with tensions >= 0 and
     no springs), and the meeting is not searched. `context`: collision.slide_context (the
-    meeting found as on the grid) or None (collision.collide)."""
+    meeting found as on the grid) or None (hand.collide)."""
     w = hand.w
     sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
     sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
@@ -227,13 +227,13 @@ SLIDE_REJOINS, SLIDE_EJECTS, SLIDE_STALLS = 0, 1, 2
 
 
 class OutcomeMemo(NamedTuple):
-    """The outcomes (`point.point_outcome`) the slides of one map have asked for, by position:
+    """The outcomes (`field.point_outcome`) the slides of one map have asked for, by position:
     an open-addressing hash table (linear probing) keyed by the bits of (|x|, y) where the hand
     is symmetric (`mirror`: equal tensions; the model is then exactly mirror-symmetric,
     point_outcome(-x, y) = point_outcome(x, y) bit for bit, tests/test_slide_memo.py), else
     of (x, y). A hit returns the bits a new evaluation would, so the slides are the same with
     or without it. An entry may hold a lower bound of the energy
-    (`point.point_outcome_below`), which answers a later search only if it is above that
+    (`field.point_outcome_below`), which answers a later search only if it is above that
     search's bound. Where slides come in mirror pairs (a symmetric map) the second of a pair
     is all hits, and the cascade's thorough search at radius h reads the step search's 8
     directions at the same centre."""
@@ -312,7 +312,7 @@ def memo_store(memo, k0, k1, c, e, exact):
 @njit(cache=True)
 def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
     """(class, energy) at world (x, y) for a search that only asks whether the energy is
-    below `bound` (+inf: the exact outcome): point.point_outcome_below, read from the memo
+    below `bound` (+inf: the exact outcome): field.point_outcome_below, read from the memo
     where it holds the position (or its mirror image, for a symmetric hand) well enough.
     The energy is exact, or a lower bound above `bound`; the search compares it with `bound`
     only (`e < best`), so its decisions are those of the exact energies. `memo` None: always
@@ -853,7 +853,7 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
     equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
     point, so a branch costs nothing measurable (docs/effects.md). `links`: the settled
-    fingers' link vectors for finger_collision (the sweep's, `collision.resolve_collisions`)."""
+    fingers' link vectors for finger_collision (the sweep's, `hand.resolve_collisions`)."""
     n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
                                              effects.finger_collision, links)
     scratch = np.empty(SCRATCH_ANGLES)

@@ -139,7 +139,7 @@ def with_joint_springs(effects, springs):
 
 
 class SettledFingers(NamedTuple):
-    """What the sweep hands `collision.resolve_collisions` about a map's settled fingers, from
+    """What the sweep hands `hand.resolve_collisions` about a map's settled fingers, from
     its cell's shared finger field: the link vectors of every shared point (`links`,
     (4, y, offset): l1 cos t1, l1 sin t1, l2 cos phi, l2 sin phi), where the left and right
     finger of world column i read offset start + stride * i, and `memo` (y, x, 5): per point
