@@ -243,11 +243,12 @@ def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.nd
 def caging_areas(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.ndarray,
                  h: float) -> np.ndarray:
     """Caging area of the maps `keys` ((n, 2): part, design) at spacing h, with the scene's
-    limits, accuracy and effects, by the sweep's own path (`batch.summarize_cells`): each cell
-    (design without w, part, command) once, at the widths of its maps in `keys` (one finger
-    field serves them all); one call per (command, set of widths), its cells in parallel in the
-    order of their first map in `keys`. (Measured against one call per width and against whole
-    cells at every width: docs/performance.md.)"""
+    limits, accuracy and effects, by the sweep's own path (`summarize_cells`): each cell (design
+    without w, part, command) once, computing only the widths of its maps in `keys` (`want`; one
+    finger field serves them all); one call per (command, set of widths), the small sets of a
+    command in one call at the union of their widths, its cells in parallel, largest first.
+    (Measured against one call per width and against whole cells at every width:
+    docs/performance.md; the union's waste: model-notes D28.)"""
     out = np.empty(keys.shape[0])
     index: dict = {}
     which = np.array([index.setdefault(tuple(c), len(index))
