@@ -5,6 +5,7 @@ a finger whose path ends first is the other's stop.
 Cases worked by hand, a plain-Python reference of the rule (own segment geometry), and the
 map-level promise: no caged point has crossed fingers."""
 import math
+import os
 
 import numpy as np
 import pytest
@@ -15,8 +16,8 @@ from sweep.kernels.hand import meeting_progress, resolve_collisions, stopped_fin
 from sweep.kernels.records import FingerCollision, new_finger_arrays
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
-from sweep.model import (FREE, PROXIMAL_ONLY, TWO_PHALANX, Accuracy, Design, Effects, Grid,
-                         Limits, Part)
+from sweep.model import (FREE, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX, Accuracy, Design,
+                         Effects, Grid, Limits, Part)
 
 TH2MIN, TH2MAX = math.radians(-5.0), math.radians(90.0)
 COLLISION = FingerCollision(0.01, 1e-12)
@@ -422,3 +423,192 @@ def test_manipulation_with_collision_is_the_base_scene_without_crossed_fingers()
     for c in (c_all, c_uncrossed):
         for name, x in b_uncrossed.to_arrays().items():
             assert np.array_equal(c.to_arrays()[name], x), name
+
+
+# --- a finger that took the tip path (tip_contact, model-notes D29) ---------------------------
+TIP_MODES = (6, 7, 4)  # TIP_ONLY, PROXIMAL_TIP, SLIPPED (sweep.model; with tip_contact)
+TIP_SCENE_CASES = [(2.0, 0.4, 1.2, 0.4, 0.0), (2.0, 0.4, 1.2, 0.8, 0.4),
+                   (1.2, 1.6, 1.2, 0.4, 0.4)]
+
+
+def tip_scene_maps(l1, l2, w, r, mu):
+    design, part = Design(l1, l2, 0.2, 0.14, w), Part(r, mu)
+    tip = compute_map(design, part, grid=Grid(h=0.1),
+                      effects=Effects(friction=mu > 0, tip_contact=True))
+    both = compute_map(design, part, grid=Grid(h=0.1),
+                       effects=Effects(friction=mu > 0, tip_contact=True, finger_collision=True))
+    return design, part, tip, both
+
+
+def tip_on_disc_reference(t2, dx, dy, l1, l2, r):
+    """The first t1 in [0, pi] at which the tip, the distal at t2 and the finger turning about
+    its joint, reaches the disc (a fine scan, then bisection), independent of the kernels."""
+    def outside(t1):
+        tx = l1 * math.cos(t1) + l2 * math.cos(t1 + t2)
+        ty = l1 * math.sin(t1) + l2 * math.sin(t1 + t2)
+        return math.hypot(tx - dx, ty - dy) - r
+    grid = np.linspace(0.0, math.pi, 1001)
+    vals = np.hypot(l1 * np.cos(grid) + l2 * np.cos(grid + t2) - dx,
+                    l1 * np.sin(grid) + l2 * np.sin(grid + t2) - dy) - r
+    entries = np.nonzero((vals[:-1] > 0.0) & (vals[1:] <= 0.0))[0]
+    if vals[0] <= 0.0 or len(entries) == 0:
+        return 0.0 if vals[0] <= 0.0 else math.pi  # the kernel clamps t1 into [0, pi]
+    lo, hi = grid[entries[0]], grid[entries[0] + 1]
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if outside(mid) > 0.0 else (lo, mid)
+    return hi
+
+
+def meet(a, b):
+    """The fingers cross or touch (within RANGE_TOL, as the kernel's predicate: fingers lying
+    on the palm row touch without crossing)."""
+    if cross(a, b):
+        return True
+    return min(segment_distance(a[i], a[i + 1], b[k], b[k + 1])
+               for i in range(2) for k in range(2)) <= RANGE_TOL
+
+
+def segment_distance(p, q, r, s):
+    return min(segment_point_distance(p, q, r), segment_point_distance(p, q, s),
+               segment_point_distance(r, s, p), segment_point_distance(r, s, q))
+
+
+@pytest.mark.parametrize("case", TIP_SCENE_CASES, ids=lambda c: "-".join(map(str, c)))
+def test_a_finger_that_took_the_tip_path_stops_on_its_own_path(case):
+    """Where a finger ended on its tip path (TIP_ONLY, PROXIMAL_TIP, SLIPPED) and the settled
+    fingers cross, both fingers stop where their own paths first meet: a plain-Python scan of
+    the shared progress (the closing to where the tip path began, then the tip path with the
+    tip on the disc, found here by its own scan) gives the same stop; the stopped fingers do
+    not cross, no link passes through the part and a finger stopped on its tip path has its
+    tip on the disc (D29)."""
+    from sweep.kernels.finger import tip_path_start
+    from sweep.compute.layout import kernel_records as records
+
+    l1, l2, w, r, mu = case
+    design, part, tip, both = tip_scene_maps(*case)
+    finger, solver, blocks = records(design, part, Limits(), Accuracy(),
+                                     Effects(friction=mu > 0, tip_contact=True))
+    th = finger.theta2_min
+    mode, t1, t2 = (np.asarray(tip.fields[k]) for k in ("finger_mode", "theta1", "theta2"))
+    new_mode, n1, n2 = (np.asarray(both.fields[k]) for k in ("finger_mode", "theta1", "theta2"))
+    xs, ys = np.asarray(tip.x), np.asarray(tip.y)
+    checked = on_tip_stops = 0
+    candidates = np.argwhere(np.isin(mode, TIP_MODES).any(axis=0))
+    # the plain-Python scan takes about a second a point: a fixed random sample of the map's
+    # points, all of them with SWEEP_LONG_PROPERTIES=1 (passed on every point, 2026-11-25)
+    long_profile = os.environ.get("SWEEP_LONG_PROPERTIES", "") not in ("", "0")
+    for j, i in np.random.default_rng(0).permutation(candidates):
+        if not long_profile and checked >= 4 and on_tip_stops >= 2:
+            break
+        if (mode[:, j, i] < 0).any():
+            continue
+        x, y = xs[i], ys[j]
+        settled = [(t1[s, j, i], t2[s, j, i]) for s in range(2)]
+        if not meet(polyline(0, *settled[0], l1, l2, w), polyline(1, *settled[1], l1, l2, w)):
+            assert all((n1[s, j, i], n2[s, j, i]) == settled[s] for s in range(2))
+            continue
+        paths = []
+        for s in range(2):
+            dx = (-x if s == 0 else x) - 0.5 * w
+            on, t1s, t2s, _ = tip_path_start(dx, y, mode[s, j, i], *settled[s], finger, solver,
+                                             blocks)
+            paths.append((settled[s], on, (t1s, t2s), dx))
+
+        ends = [own_path_end_reference(path, th) for path in paths]
+        n_scan = 4000
+        stop = None
+        for k in range(1, n_scan + 1):
+            p = max(ends) * k / n_scan
+            a, b = (own_path_reference(p, path, y, th, l1, l2, r) for path in paths)
+            if meet(polyline(0, *a, l1, l2, w), polyline(1, *b, l1, l2, w)):
+                stop = max(ends) * (k - 1) / n_scan
+                break
+        assert stop is not None
+        for s in range(2):
+            got = (n1[s, j, i], n2[s, j, i])
+            want = own_path_reference(stop, paths[s], y, th, l1, l2, r)
+            # to the scan's resolution (the stop lies within one scan step after `stop`)
+            assert got == pytest.approx(want, abs=0.05), (j, i, s)
+            jj, bb, tt = polyline(s, *got, l1, l2, w)
+            for a_, b_ in ((jj, bb), (bb, tt)):
+                assert segment_point_distance(a_, b_, (x, y)) >= r * (1 - 1e-6)
+            if paths[s][1] and new_mode[s, j, i] == 6 and got != settled[s]:
+                assert math.hypot(tt[0] - x, tt[1] - y) == pytest.approx(r, rel=1e-6)
+                on_tip_stops += 1
+        assert not cross(polyline(0, n1[0, j, i], n2[0, j, i], l1, l2, w),
+                         polyline(1, n1[1, j, i], n2[1, j, i], l1, l2, w))
+        checked += 1
+    assert checked >= 4 and on_tip_stops >= 2
+
+
+def own_path_end_reference(path, th):
+    (a1, a2), on, (t1s, t2s), _ = path
+    return a1 + a2 - th if not on else t1s + t2s - th + a2 - t2s
+
+
+def own_path_reference(p, path, y, th, l1, l2, r):
+    """A finger's angles at shared progress p on its own path (D29): without the tip path,
+    D14's rebuilt closing; with it, the closing to where the tip path began, then t2 up at
+    unit rate with the tip on the disc."""
+    (a1, a2), on, (t1s, t2s), dx = path
+    if not on:
+        return path_angles(p, a1, a2)
+    start = t1s + t2s - th
+    if p >= own_path_end_reference(path, th):
+        return a1, a2
+    if p <= start:
+        return path_angles(p, t1s, t2s)
+    b2 = t2s + p - start
+    return tip_on_disc_reference(b2, dx, y, l1, l2, r), b2
+
+
+def path_angles(p, t1_end, t2_end):
+    return (p, TH2MIN) if p <= t1_end else (t1_end, min(TH2MIN + p - t1_end, t2_end))
+
+
+def segment_point_distance(a, b, q):
+    ax, ay = a
+    vx, vy = b[0] - ax, b[1] - ay
+    u = ((q[0] - ax) * vx + (q[1] - ay) * vy) / (vx * vx + vy * vy)
+    u = min(max(u, 0.0), 1.0)
+    return math.hypot(ax + u * vx - q[0], ay + u * vy - q[1])
+
+
+@pytest.mark.parametrize("case", TIP_SCENE_CASES[:2], ids=lambda c: "-".join(map(str, c)))
+def test_grid_points_with_a_tip_path_finger_are_the_one_position_answer(case):
+    """The map resolves its points with a tip-path finger by field.tip_path_collisions, the
+    slides' off-grid positions by point_outcome (collide_on_own_paths): at every grid point
+    the two give the same fingers (bit for bit), class and energy (the map sums its energy
+    from per-finger fields, in another order: to 1e-12, as at every point)."""
+    from sweep.compute.layout import kernel_records as records
+    from sweep.kernels.field import collide_on_own_paths, point_outcome
+    from sweep.kernels.records import Hand
+
+    l1, l2, w, r, mu = case
+    design, part, tip, both = tip_scene_maps(*case)
+    effects = Effects(friction=mu > 0, tip_contact=True, finger_collision=True)
+    finger, solver, blocks = records(design, part, Limits(), Accuracy(), effects)
+    hand = Hand(w, 1.0, 1.0, 0.1)
+    mode = np.asarray(tip.fields["finger_mode"])
+    pc, energy = np.asarray(both.fields["point_class"]), np.asarray(both.fields["energy"])
+    xs, ys = np.asarray(both.x), np.asarray(both.y)
+    n = 0
+    settled = [np.asarray(tip.fields[k]) for k in ("finger_mode", "theta1", "theta2", "k1",
+                                                      "k2")]
+    stopped = [np.asarray(both.fields[k]) for k in ("finger_mode", "theta1", "theta2", "k1",
+                                                      "k2")]
+    for j, i in zip(*np.nonzero(np.isin(mode, TIP_MODES).any(axis=0))):
+        c, e = point_outcome(xs[i], ys[j], finger, solver, blocks, hand)
+        assert c == pc[j, i]
+        if c == 0:
+            continue
+        _, left, right = collide_on_own_paths(
+            xs[i], ys[j], finger, solver, blocks, hand, blocks.finger_collision,
+            *[tuple(f[s, j, i].item() for f in settled) for s in range(2)])
+        for s, got in enumerate((left, right)):
+            assert tuple(np.float64(v).tobytes() for v in got) == \
+                tuple(np.float64(f[s, j, i]).tobytes() for f in stopped), (j, i, s)
+        assert e == pytest.approx(energy[j, i], rel=1e-12, abs=1e-12)
+        n += 1
+    assert n > 20

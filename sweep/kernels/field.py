@@ -46,7 +46,9 @@ from ..model import (
     INFEASIBLE,
     RANGE_TOL,
     REACHED,
+    PROXIMAL_ONLY,
     SLIPPED,
+    TIP_ONLY,
     TRAJECTORY_GRID8,
     TRAJECTORY_SLIDING,
     UNREACHED,
@@ -55,13 +57,26 @@ from ..model import (
 )
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .hand import (
+    MAX_PROGRESS_STEPS,
+    closing_path_angles,
     collide,
     collide_near,
     resolve_collisions,
     rests_on_other_finger,
+    settled_fingers_cross,
     slide_context,
+    stopped_finger,
 )
-from .finger import OVERLAP, finger_energy, finger_statics, solve_finger, spring_energy
+from .finger import (
+    OVERLAP,
+    finger_energy,
+    finger_statics,
+    solve_finger,
+    spring_energy,
+    tip_on_disc,
+    tip_path_start,
+    took_tip_path,
+)
 from .hull import convex_hull, inscribed_radius
 from .hand import (
     finger_polyline,
@@ -87,6 +102,174 @@ from .records import (
     with_joint_springs,
 )
 from .streamline import streamline_ends
+
+
+# ---------------------------------------------------------------------------------------------
+# finger_collision for a finger that took the tip path (tip_contact; model-notes D29)
+# ---------------------------------------------------------------------------------------------
+# A finger's own path (path tuples): (t1, t2) its final angles; on_tip, (t1s, t2s) where its
+# tip path began (finger.tip_path_start); (dx, dy) the part in its frame. Without the tip path
+# it is the closing D14 rebuilds from the final angles; with it, that closing up to (t1s, t2s),
+# then the tip path (the tip on the disc, t1 following, t2 up to the final t2), progress
+# counting t2's travel there. Here, not in hand.py: it needs the finger's paths (finger.py),
+# and the kernels' import chain stays within its length (tests/test_layers.py).
+@njit(cache=True)
+def own_path_end(path, theta2_min):
+    t1, t2, on_tip, t1s, t2s, _, _ = path
+    if not on_tip:
+        return t1 + (t2 - theta2_min)
+    return t1s + (t2s - theta2_min) + (t2 - t2s)
+
+
+@njit(cache=True)
+def own_path_angles(progress, path, finger):
+    """(t1, t2) of a finger at shared progress p along its own path (the final angles from
+    its end on)."""
+    t1, t2, on_tip, t1s, t2s, dx, dy = path
+    th = finger.theta2_min
+    if not on_tip:
+        return closing_path_angles(progress, t1, t2, th)
+    if progress >= own_path_end(path, th):
+        return t1, t2
+    start = t1s + (t2s - th)
+    if progress <= start:
+        return closing_path_angles(progress, t1s, t2s, th)
+    a2 = t2s + (progress - start)
+    _, _, a1 = tip_on_disc(a2, dx, dy, finger)
+    return min(max(a1, 0.0), math.pi), a2
+
+
+@njit(cache=True)
+def own_paths_cross_at(progress, left, right, finger, w):
+    a1l, a2l = own_path_angles(progress, left, finger)
+    a1r, a2r = own_path_angles(progress, right, finger)
+    return fingers_cross(finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w),
+                         finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w))
+
+
+@njit(cache=True)
+def own_paths_meeting(left, right, finger, w, collision):
+    """hand.meeting_progress on the fingers' own paths: the first node (every
+    collision.progress_step) where they cross, that step bisected to collision.tol; -1 if they
+    cross from the start (as the reference) or never. Every node is tried: on the tip path no
+    speed bound lets nodes be skipped, and these points are few."""
+    if own_paths_cross_at(0.0, left, right, finger, w):
+        return -1.0
+    th = finger.theta2_min
+    p_end = max(own_path_end(left, th), own_path_end(right, th))
+    step = collision.progress_step
+    n_max = int(min(math.ceil(p_end / step), MAX_PROGRESS_STEPS)) + 1
+    for n in range(1, n_max + 1):
+        hi = min(n * step, p_end)
+        if own_paths_cross_at(hi, left, right, finger, w):
+            lo = min((n - 1) * step, p_end)
+            for _ in range(200):
+                if hi - lo <= collision.tol:
+                    break
+                mid = 0.5 * (lo + hi)
+                if own_paths_cross_at(mid, left, right, finger, w):
+                    hi = mid
+                else:
+                    lo = mid
+            return lo
+        if hi >= p_end:
+            break
+    return -1.0
+
+
+@njit(cache=True)
+def stopped_on_own_path(progress, state, path, k1_start, finger):
+    """hand.stopped_finger on the finger's own path: (changed, mode, t1, t2, k1, k2). In its
+    closing to where the tip path began, D14's rule (FREE, or PROXIMAL_ONLY with that closing's
+    proximal contact); on the tip path, held by the other finger with its tip on the part
+    (TIP_ONLY)."""
+    mode, t1, t2, k1, k2 = state
+    _, _, on_tip, t1s, t2s, _, _ = path
+    th = finger.theta2_min
+    if not on_tip:
+        return stopped_finger(progress, mode, t1, t2, k1, k2, th)
+    if progress >= own_path_end(path, th):
+        return False, mode, t1, t2, k1, k2
+    if progress < t1s + (t2s - th):
+        return stopped_finger(progress, PROXIMAL_ONLY if k1_start > 0.0 else FREE, t1s, t2s,
+                              k1_start, 0.0, th)
+    a1, a2 = own_path_angles(progress, path, finger)
+    return True, TIP_ONLY, a1, a2, 0.0, finger.l2
+
+
+@njit(cache=True)
+def collide_on_own_paths(x, y, finger, solver, effects, hand, collision, left, right):
+    """finger_collision at a part position where a finger took the tip path (D29): (changed,
+    left, right), each (mode, t1, t2, k1, k2), both fingers stopped on their own paths at the
+    first meeting, if their final configurations cross (D14)."""
+    w = hand.w
+    if left[0] < 0 or right[0] < 0 or collision is None:
+        return False, left, right
+    if not settled_fingers_cross(left[1], left[2], right[1], right[2], finger, w):
+        return False, left, right
+    dxl = -x - 0.5 * w
+    dxr = x - 0.5 * w
+    on_l, t1sl, t2sl, k1sl = tip_path_start(dxl, y, left[0], left[1], left[2], finger, solver,
+                                            finger_effects(effects, hand.f_left))
+    on_r, t1sr, t2sr, k1sr = tip_path_start(dxr, y, right[0], right[1], right[2], finger, solver,
+                                            finger_effects(effects, hand.f_right))
+    path_l = (left[1], left[2], on_l, t1sl, t2sl, dxl, y)
+    path_r = (right[1], right[2], on_r, t1sr, t2sr, dxr, y)
+    p = own_paths_meeting(path_l, path_r, finger, w, collision)
+    if p < 0.0:
+        return False, left, right
+    cl, ml, a1l, a2l, b1l, b2l = stopped_on_own_path(p, left, path_l, k1sl, finger)
+    cr, mr, a1r, a2r, b1r, b2r = stopped_on_own_path(p, right, path_r, k1sr, finger)
+    return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
+
+
+@njit(cache=True)
+def tip_path_collisions(xs, ys, finger, solver, effects, hand, fingers, collision, tip):
+    """The grid's points where a finger took the tip path, by collide_on_own_paths (in place):
+    (points changed, handled), `handled` marking them for hand.resolve_collisions to leave
+    alone. Without tip_contact (tip None) no finger took it: nothing is handled."""
+    handled = np.zeros((fingers.mode.shape[1], fingers.mode.shape[2]), dtype=np.bool_)
+    n_changed = 0
+    for j in range(ys.shape[0]):
+        for i in range(xs.shape[0]):
+            if not (took_tip_path(fingers.mode[0, j, i], tip)
+                    or took_tip_path(fingers.mode[1, j, i], tip)):
+                continue
+            handled[j, i] = True
+            left = (fingers.mode[0, j, i], fingers.t1[0, j, i], fingers.t2[0, j, i],
+                    fingers.k1[0, j, i], fingers.k2[0, j, i])
+            right = (fingers.mode[1, j, i], fingers.t1[1, j, i], fingers.t2[1, j, i],
+                     fingers.k1[1, j, i], fingers.k2[1, j, i])
+            changed, new_l, new_r = collide_on_own_paths(xs[i], ys[j], finger, solver, effects,
+                                                         hand, collision, left, right)
+            if changed:
+                n_changed += 1
+                set_finger(fingers, 0, j, i, new_l)
+                set_finger(fingers, 1, j, i, new_r)
+    return n_changed, handled
+
+
+@njit(cache=True)
+def set_finger(fingers, side, j, i, state):
+    fingers.mode[side, j, i] = state[0]
+    fingers.t1[side, j, i] = state[1]
+    fingers.t2[side, j, i] = state[2]
+    fingers.k1[side, j, i] = state[3]
+    fingers.k2[side, j, i] = state[4]
+
+
+@njit(cache=True)
+def collisions_of_map(xs, ys, finger, solver, effects, hand, fingers, links, collision, tip):
+    """finger_collision on a map's solved fingers (in place): the points where a finger took
+    the tip path on their own paths (D29), the rest by hand.resolve_collisions (D14). Returns
+    the number of points changed."""
+    if tip is None:  # (pruned: Numba prunes `is None` on a function's own arguments)
+        return resolve_collisions(ys, finger, hand.w, fingers, collision, links)
+    if collision is None:
+        return 0
+    n_tip, handled = tip_path_collisions(xs, ys, finger, solver, effects, hand, fingers,
+                                         collision, tip)
+    return n_tip + resolve_collisions(ys, finger, hand.w, fingers, collision, links, handled)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -154,6 +337,13 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
     sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
     collision = effects.finger_collision
+    if collision is not None and (took_tip_path(sl.mode, effects.tip_contact)
+                                  or took_tip_path(sr.mode, effects.tip_contact)):
+        # on the fingers' own paths (D29); no lower bound: on the tip path t1 may grow
+        _, left, right = collide_on_own_paths(
+            x, y, finger, solver, effects, hand, collision,
+            (sl.mode, sl.t1, sl.t2, sl.k1, sl.k2), (sr.mode, sr.t1, sr.t2, sr.k1, sr.k2))
+        return outcome_of(y, left, right, finger, hand, effects.joint_springs)
     if collision is not None and effects.joint_springs is None and hand.f_left >= 0.0 \
             and hand.f_right >= 0.0:
         c = classify_point(y, finger.r, sl.mode, sr.mode)
@@ -167,11 +357,16 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     else:
         _, left, right = collide_near(finger, w, collision, context, sl.mode, sl.t1, sl.t2,
                                       sl.k1, sl.k2, sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+    return outcome_of(y, left, right, finger, hand, effects.joint_springs)
+
+
+@njit(cache=True)
+def outcome_of(y, left, right, finger, hand, springs):
+    """(class, energy, exact) of a position from its fingers, each (mode, t1, t2, k1, k2)."""
     c = classify_point(y, finger.r, left[0], right[0])
     if c == INFEASIBLE:
         return c, np.inf, True
-    return c, point_energy(left[1], left[2], right[1], right[2], finger, hand,
-                           effects.joint_springs), True
+    return c, point_energy(left[1], left[2], right[1], right[2], finger, hand, springs), True
 
 
 # ---------------------------------------------------------------------------------------------
@@ -854,8 +1049,9 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
     point, so a branch costs nothing measurable (docs/effects.md). `links`: the settled
     fingers' link vectors for finger_collision (the sweep's, `hand.resolve_collisions`)."""
-    n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
-                                             effects.finger_collision, links)
+    n_collision_changed = collisions_of_map(xs, ys, finger, solver, effects, hand, fingers,
+                                            links, effects.finger_collision,
+                                            effects.tip_contact)
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
@@ -870,8 +1066,9 @@ def map_from_fingers_parallel(xs, ys, finger, solver, hand, effects, fingers, ou
                               stack, summary, every_point, equilibrium=True, caging=True):
     """map_from_fingers with the outcome rows in parallel (one map, all threads: compute_map).
     Rows are independent, so the results are those of the serial pipeline, bit for bit."""
-    n_collision_changed = resolve_collisions(ys, finger, hand.w, fingers,
-                                             effects.finger_collision)
+    n_collision_changed = collisions_of_map(xs, ys, finger, solver, effects, hand, fingers,
+                                            None, effects.finger_collision,
+                                            effects.tip_contact)
     outcome_rows_parallel(xs, ys, finger, hand, effects.joint_springs, effects.tip_contact,
                           fingers, outs, forces, every_point, equilibrium, caging)
     map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,

@@ -872,6 +872,37 @@ def solve_finger(dx, dy, finger, solver, effects):
     return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 
 
+@njit(cache=True)
+def took_tip_path(mode, tip):
+    """A settled finger whose final state may lie on the tip path (D15): TIP_ONLY, PROXIMAL_TIP,
+    or SLIPPED with tip_contact (the part lost by the tip). Its closing is not the rigid sweep
+    then the distal closing that finger_collision rebuilds from the final angles (D14, D29)."""
+    return tip is not None and (mode == TIP_ONLY or mode == PROXIMAL_TIP or mode == SLIPPED)
+
+
+@njit(cache=True)
+def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
+    """(on_tip, t1, t2, k1) where the finger's tip path began (model-notes D29), its closing up to
+    there being the rigid sweep then the distal closing, and the proximal contact it had there.
+    on_tip False: the finger held where it first struck, so the path D14 rebuilds from its final
+    angles is its own. The same calls as solve_finger's (same bits): the first contact, and, when
+    the contact first slid along the distal link, that edge path's end (the contact at the tip)."""
+    if not took_tip_path(mode, effects.tip_contact):
+        return False, t1, t2, 0.0
+    first = closing_contact(dx, dy, finger, effects)
+    if first.t1 == t1 and first.t2 == t2:  # a strike that held
+        return False, t1, t2, 0.0
+    if first.mode == TIP_ON_LOWER_STOP or first.mode == TIP_ON_PROXIMAL_STOP:
+        return True, first.t1, first.t2, 0.0
+    if first.mode == PROXIMAL_THEN_TIP:
+        return True, first.t1, first.t2, first.k1
+    # the contact slid along the distal link to the tip first (reconfigure, then past_the_tip)
+    _, t1e, _, _ = follow_path(dx, dy, first.t1, 0.0, finger, solver, effects.joint_springs,
+                               None)
+    t2e, _ = distal_tangency(dx, dy, t1e, finger.l1, finger.r)
+    return True, t1e, t2e, 0.0
+
+
 # ---------------------------------------------------------------------------------------------
 # Energy (MODEL 6) and contact forces (MODEL 5.1, 5.6)
 # ---------------------------------------------------------------------------------------------

@@ -30,6 +30,9 @@ bits faster (`resolve_collisions`, model-notes D14 "How a map finds the meeting"
    (records.SettledFingers). `collide` does one point anywhere, with the symmetric sweep as
    the first phase of its contact search.
 
+A finger that took the tip path (tip_contact) is stopped on its own path instead
+(model-notes D29, `field.collide_on_own_paths`); `resolve_collisions` leaves such points alone.
+
 One module, not two (P14): the import chain from the CLI to the model stays within ten modules
 (tests/test_layers.py); the sections were the modules part and collision.
 """
@@ -1065,7 +1068,7 @@ def two_term_root(f0, g0, p1, q1, a1, w1, p2, q2, a2, w2, nd, theta_max):
 
 
 @njit(cache=True)
-def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
+def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=None):
     """Apply finger_collision to solved finger fields in place; returns the number of points
     where a finger's configuration changed (0 when the effect is off: None, compiled out).
 
@@ -1079,7 +1082,8 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
     a point whose mirror point, left neighbour, or memo entry (the sweep's `settled`, a
     records.SettledFingers; None elsewhere) has the same configurations takes its answer.
     With `settled`, the settled fingers' polylines come from their link vectors, without
-    trigonometry (same bits as `finger_polyline`)."""
+    trigonometry (same bits as `finger_polyline`). `handled`: points already resolved on the
+    fingers' own paths (a finger took the tip path, field.tip_path_collisions), left alone."""
     if collision is None:
         return 0
     th = finger.theta2_min
@@ -1095,6 +1099,8 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None):
         for i in range(nx):
             meet[i] = -1.0
             if fingers.mode[0, j, i] < 0 or fingers.mode[1, j, i] < 0:  # infeasible
+                continue
+            if handled is not None and handled[j, i]:
                 continue
             t1l, t2l, t1r, t2r = settled_angles(fingers, j, i)
             m = nx - 1 - i
