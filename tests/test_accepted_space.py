@@ -379,6 +379,25 @@ def test_a_finger_stopped_by_the_other_with_tip_contact_keeps_its_links_out_of_t
     check_map(case, run(case))
 
 
+def test_a_part_touching_the_joint_within_round_off_rests_on_the_open_proximal_link():
+    """Found by the long profile (2026-11-25): the part's circle passes through the left
+    finger's joint to round-off (d = (2.3e-8, 1), r = 1: the tangent length 2.3e-8 is known
+    only to about 20%, so the proximal tangency's angle came out -1.8e-9, beyond RANGE_TOL).
+    The tangency was rejected, the rigid sweep went on through the part and the finger
+    ended with its proximal link 0.866 from the centre. The link is tangent on its stop:
+    it rests on the part there (stability.md)."""
+    case = dict(design=Design(l1=1.000000137244776, l2=1.0000000000002303, r1=1.0, r2=1.0,
+                              w=1.0),
+                part=Part(r=1.0, mu=0.0),
+                command=Command(f_left=0.0, f_right=1.0),
+                limits=Limits(theta2_min_deg=-5.0, theta2_max_deg=1e-12),
+                accuracy=Accuracy(reconfig_step=0.0001, root_tol=1e-12,
+                                  trajectory="continuous"),
+                effects=Effects(friction=True, tip_contact=True),
+                outputs=Outputs(), grid=Grid(h=0.5000000228741678))
+    check_map(case, run(case))
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())

@@ -56,6 +56,7 @@ from .records import FingerState, FingerStatics
 # =================================================================================================
 
 NO_ANGLE = math.inf
+EPS = 2.0 ** -52  # float64 machine epsilon (the round-off of tangencies, tangency_slack)
 
 
 @njit(cache=True)
@@ -88,6 +89,18 @@ def in_range(value, lower, upper):
 @njit(cache=True)
 def clamp(value, lower, upper):
     return min(max(value, lower), upper)
+
+
+@njit(cache=True)
+def tangency_slack(k, dist2, r):
+    """How far round-off can move the angle atan2(r, k) of a tangency (MODEL 5.5), plus
+    RANGE_TOL. k = sqrt(dist2 - r^2) carries an absolute error of about eps dist2 / k (sqrt of
+    eps dist2 once k^2 is below that): as the point nears the circle the tangent's angle is
+    known only to about 1e-8 (a part touching the joint to round-off). Far from it this is
+    RANGE_TOL to 1e-15."""
+    delta = 4.0 * EPS * dist2
+    dk = delta / (2.0 * k) if k * k > delta else math.sqrt(delta)
+    return RANGE_TOL + dk * r / (r * r + k * k)
 
 
 @njit(cache=True)
@@ -662,7 +675,8 @@ def closing_contact(dx, dy, finger, effects):
 
     # Rigid sweep, proximal tangency first (provably the earliest event when valid).
     t1, k1 = proximal_tangency(dx, dy, r)
-    if k1 <= l1 + RANGE_TOL and in_range(t1, 0.0, math.pi):
+    slack = tangency_slack(k1, dx * dx + dy * dy, r)  # a part touching the joint (stability.md)
+    if k1 <= l1 + RANGE_TOL and -slack <= t1 <= math.pi + slack:
         t1 = clamp(t1, 0.0, math.pi)
         k1 = clamp(k1, 0.0, l1)
         return distal_closes_after_proximal(dx, dy, t1, k1, finger, effects.tip_contact)
