@@ -18,7 +18,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sweep import __version__
 from sweep.compute import manipulation as manip
 from sweep.compute.batch import SUMMARY_FIELDS
 from sweep.config.parse import load_scene, scene_from_dict
@@ -29,28 +28,16 @@ from sweep.schema import COUNT_FIELDS
 from sweep.storage import store
 from sweep.storage.h5 import atomic_file
 from sweep.storage.store import (
-    KIND_PART, Block, CorruptFile, read_block, read_manipulation, store_differences, write_block,
+    KIND_PART, CorruptFile, read_block, read_manipulation, store_differences, write_block,
     write_store,
 )
-from sweep_cases import fake_summaries, tiny
+from sweep_cases import block_in_memory, fake_items, tiny
 
 CONFIG = Path(__file__).parent / "data" / "manipulation.yaml"
 
 
-def fake_items(scene, start, stop):
-    cells, cmd = scene.cells(start, stop)
-    out = np.empty((stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS)))
-    for c in np.unique(cmd):
-        sel = cmd == c
-        out[sel] = fake_summaries(cells[sel], scene.widths, scene.commands[c], scene.h,
-                                  scene.limits, scene.accuracy)
-    return out
-
-
 def in_memory(scene, start, stop):
-    return Block(path=None, kind=KIND_PART, start=start, stop=stop,
-                 config_hash=scene.config_hash, version=__version__, frozen=scene.frozen(),
-                 compute_seconds=0.0, data=fake_items(scene, start, stop))
+    return block_in_memory(scene, fake_items(scene, start, stop), start)
 
 
 def map_by_map(scene, full):
