@@ -10,6 +10,9 @@ clean-up of temporaries left by killed writers, and one-line errors for file-sys
   HDF5 (`sweep.storage.h5.atomic_file`), JSON and PNG files are all rendered to bytes in memory
   first, so a full disk is a plain `OSError` here and never an error inside the HDF5 library (which
   crashed the process on ENOSPC).
+- `atomic_stream(path)` is the same for a file too large to render in memory first (the results
+  store): the HDF5 library writes it to the temporary as it grows, through a `SpooledTemp` that
+  never reports a refused write to the library (it carries on in memory) and fails at the end.
 - Every `OSError` of a write becomes an `OutputError` whose one-line message names the path and
   says what happened ("no space left on device", "read-only file system", ...).
 

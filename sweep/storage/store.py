@@ -252,26 +252,28 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
                 write_variable(f, k, np.array([getattr(c, k) for c in scene.commands]),
                                ("command",), dict(long_name=f"tendon tension of the "
                                                   f"{k[2:]} finger", units="force (model units)"))
-        for name in fields:
-            create_variable(f, name, scene.store_shape,
-                            np.int32 if name in COUNT_FIELDS else np.float64, dims,
-                            FIELD_ATTRS[name])
+        # held open while they are filled: closing a variable writes out its chunk cache, and
+        # every later group would read, inflate and deflate those chunks again
+        out = {name: create_variable(f, name, scene.store_shape,
+                                     np.int32 if name in COUNT_FIELDS else np.float64, dims,
+                                     FIELD_ATTRS[name])
+               for name in fields}
         if scene.manipulation:
             _write_manipulation_coordinates(f, scene)
             for name in ("manipulation_a", "manipulation_a_area"):
-                create_variable(f, name, [scene.axis_len(d) for d in A_DIMS], np.float64,
-                                A_DIMS, MANIPULATION_ATTRS[name])
+                out[name] = create_variable(f, name, [scene.axis_len(d) for d in A_DIMS],
+                                            np.float64, A_DIMS, MANIPULATION_ATTRS[name])
         h2 = scene.h * scene.h
         for group, items in iter_groups(scene, blocks, partial(_block_items, scene)):
             arrays = store_arrays(scene, items[0], one_group=True)
             at = group_slab(scene, group, dims)
             for name in fields:
-                f[name][at] = arrays[name]
+                out[name][at] = arrays[name]
             if scene.manipulation:        # one command (scene validation)
                 a = _item_axes(scene, items[1], (), A_DIMS + ("command",), True)[..., 0]
                 at = group_slab(scene, group, A_DIMS)
-                f["manipulation_a"][at] = a
-                f["manipulation_a_area"][at] = a * h2
+                out["manipulation_a"][at] = a
+                out["manipulation_a_area"][at] = a * h2
         if scene.manipulation:
             for name, value in part_arrays(scene, blocks).items():
                 write_variable(f, name, value, PART_ARRAY_DIMS.get(name, ("r", "mu")),
