@@ -35,8 +35,8 @@ from .. import __version__
 from ..grid import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from ..config.chunks import Range, exact_cover
 from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store)
-                 atomic_amend, atomic_file, create_variable, iter_names, provenance,
-                 read_json_attr, set_root_attrs, write_coordinate, write_variable)
+                 FILL_CACHE_BYTES, atomic_amend, atomic_file, create_variable, iter_names,
+                 provenance, read_json_attr, set_root_attrs, write_coordinate, write_variable)
 from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChunk, fold_part,
                                     part_keys, part_rows, pose_cuts, read_part, usage_of)
 from ..config.scene import GROUP_AXES, ITEM_ORDER, REDUCTION_ROW_BYTES, STORE_DIMS, Scene
@@ -599,10 +599,6 @@ def _merged_by_poses(held_by: Sequence[Block], key: tuple[int, int], n_poses: in
         yield merged
 
 
-#: HDF5's chunk cache of one open variable (h5py's default): partly filled chunks wait there.
-CHUNK_CACHE_BYTES = 1 << 20
-
-
 def write_bytes(scene: Scene, block_items: int) -> int:
     """What `write_store` holds besides the interpreter and its modules, from blocks of at most
     `block_items` items: one block's summaries and one geometry group's in the store's layout,
@@ -613,7 +609,7 @@ def write_bytes(scene: Scene, block_items: int) -> int:
     not grow with the sweep, only with the blocks and the parts' lattices."""
     n_summaries = len(scene.values["w"]) * len(SUMMARY_FIELDS)
     total = (block_items + 3 * scene.group_size) * n_summaries * 8
-    total += (len(SUMMARY_FIELDS) + 2) * CHUNK_CACHE_BYTES
+    total += (len(SUMMARY_FIELDS) + 2) * FILL_CACHE_BYTES
     if scene.manipulation:
         lattice = (scene.lattice_rows() + 1) * (2 * int(scene.lattice_columns().max()) + 1)
         total += 8 * MERGE_ROWS * REDUCTION_ROW_BYTES + 2 * BATCH_ROWS * REDUCTION_ROW_BYTES
