@@ -63,7 +63,7 @@ SCENES = {"one-command": scene_from_dict(tiny()),
 
 
 @pytest.mark.parametrize("name", SCENES)
-@settings(max_examples=20)
+@settings(max_examples=12)
 @given(data=st.data())
 def test_any_cut_into_blocks_writes_every_map_at_its_place(name, data):
     scene = SCENES[name]
@@ -122,9 +122,9 @@ def test_merged_store_is_the_one_machine_store_whatever_the_batch_sizes(runs, mo
     assert any(a % scene.group_size or b % scene.group_size for a, b in ranges)
     merge_shards(root / "run", root / "merged.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "merged.h5") == []
-    # a few kept points per merge and per dense batch: many ranges of poses, many batches
-    monkeypatch.setattr(store, "MERGE_ROWS", 40)
-    monkeypatch.setattr(manip, "BATCH_ROWS", 24)
+    # a few kept points per merge and per dense batch: 14 ranges of poses, many batches
+    monkeypatch.setattr(store, "MERGE_ROWS", 150)
+    monkeypatch.setattr(manip, "BATCH_ROWS", 48)
     monkeypatch.setattr(manip, "POSE_BATCH", 5)
     merge_shards(root / "run", root / "small-batches.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "small-batches.h5") == []
@@ -184,7 +184,7 @@ def random_chunk(scene, start, stop, rng):
     return manip.ManipulationChunk(start, stop, rng.normal(size=stop - start), parts)
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("seed", [1, 2])
 def test_streamed_parts_equal_the_one_pass_merge_on_random_forces(seed, tmp_path, monkeypatch):
     rng = np.random.default_rng(seed)
     scene = scene_from_dict(tiny(outputs={"manipulation": True}))
