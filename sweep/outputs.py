@@ -10,6 +10,9 @@ clean-up of temporaries left by killed writers, and one-line errors for file-sys
   HDF5 (`sweep.storage.h5.atomic_file`), JSON and PNG files are all rendered to bytes in memory
   first, so a full disk is a plain `OSError` here and never an error inside the HDF5 library (which
   crashed the process on ENOSPC).
+- `atomic_stream(path)` is the same for a file too large to render in memory first (the results
+  store): the HDF5 library writes it to the temporary as it grows, through a `SpooledTemp` that
+  never reports a refused write to the library (it carries on in memory) and fails at the end.
 - Every `OSError` of a write becomes an `OutputError` whose one-line message names the path and
   says what happened ("no space left on device", "read-only file system", ...).
 
@@ -26,6 +29,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import io
 import json
 import os
 import socket
@@ -151,6 +155,139 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
     return path
+
+
+class SpooledTemp:
+    """The temporary of an atomic write that is written piece by piece (by the HDF5 library,
+    through h5py's file-object driver) instead of rendered in memory first, so that its memory
+    stays flat however large the file (`atomic_stream`). A write or truncation the disk refuses
+    (full, quota, ...) never reaches the library as an error (an error there crashed the process
+    at exit, as on ENOSPC): from then on the file carries on in memory, its temporary is removed,
+    and `commit` raises the refusal as the `OutputError` `write_bytes_atomic` would.
+
+    A seekable binary file as h5py's driver uses it: seek, tell, read, write, truncate, flush."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self.tmp = temp_path(self.path)
+        with os_errors_named(self.path):
+            self._fd: int | None = os.open(self.tmp, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
+        self._pos = 0
+        self._memory = None               # io.BytesIO, once the disk refused a write
+        self.refusal: OSError | None = None
+
+    def _size(self) -> int:
+        if self._memory is not None:
+            return self._memory.seek(0, os.SEEK_END)
+        return os.fstat(self._fd).st_size
+
+    def seek(self, pos: int, whence: int = os.SEEK_SET) -> int:
+        base = {os.SEEK_SET: 0, os.SEEK_CUR: self._pos, os.SEEK_END: None}[whence]
+        self._pos = (self._size() if base is None else base) + pos
+        return self._pos
+
+    def tell(self) -> int:
+        return self._pos
+
+    def read(self, size: int = -1) -> bytes:
+        size = max(self._size() - self._pos, 0) if size is None or size < 0 else size
+        if self._memory is not None:
+            with self._memory.getbuffer() as buf:
+                data = bytes(buf[self._pos:self._pos + size])
+        else:
+            data = _pread_all(self._fd, size, self._pos)
+        self._pos += len(data)
+        return data
+
+    def write(self, data) -> int:
+        view = memoryview(data).cast("B")
+        if self._memory is None:
+            try:
+                done = 0
+                while done < len(view):
+                    done += os.pwrite(self._fd, view[done:], self._pos + done)
+            except OSError as exc:
+                self._to_memory(exc)
+        if self._memory is not None:
+            self._memory.seek(self._pos)
+            self._memory.write(view)
+        self._pos += len(view)
+        return len(view)
+
+    def truncate(self, size: int | None = None) -> int:
+        size = self._pos if size is None else size
+        if self._memory is None:
+            try:
+                os.ftruncate(self._fd, size)
+            except OSError as exc:
+                self._to_memory(exc)
+        if self._memory is not None:
+            grow = size - self._size()
+            self._memory.truncate(size)
+            if grow > 0:                  # BytesIO.truncate never lengthens: pad with zeros
+                self._memory.seek(0, os.SEEK_END)
+                self._memory.write(b"\0" * grow)
+        return size
+
+    def flush(self) -> None:
+        """Nothing is buffered here (every write is a pwrite); `commit` fsyncs."""
+
+    def _to_memory(self, exc: OSError) -> None:
+        """The disk refused: carry on in memory from what it holds, and free its space."""
+        self.refusal = exc
+        self._memory = io.BytesIO(_pread_all(self._fd, os.fstat(self._fd).st_size, 0))
+        self.discard()
+
+    def commit(self) -> Path:
+        """fsync and rename to the final name; OutputError (nothing left behind) if the disk
+        refused a write."""
+        if self.refusal is not None:
+            self.discard()
+            err = OutputError(os_error_message(self.refusal, self.path))
+            err.errno = self.refusal.errno
+            raise err
+        with os_errors_named(self.path):
+            os.fsync(self._fd)            # before the rename, as write_bytes_atomic
+            os.close(self._fd)
+            self._fd = None
+            os.replace(self.tmp, self.path)
+        return self.path
+
+    def discard(self) -> None:
+        """Close and remove the temporary (nothing if already committed or discarded)."""
+        if self._fd is not None:
+            with contextlib.suppress(OSError):
+                os.close(self._fd)
+            self._fd = None
+            with contextlib.suppress(FileNotFoundError):
+                self.tmp.unlink()
+
+
+def _pread_all(fd: int, size: int, offset: int) -> bytes:
+    """Up to `size` bytes from `offset` (fewer only at the end of the file)."""
+    chunks, done = [], 0
+    while done < size:
+        chunk = os.pread(fd, size - done, offset + done)
+        if not chunk:
+            break
+        chunks.append(chunk)
+        done += len(chunk)
+    return b"".join(chunks)
+
+
+@contextlib.contextmanager
+def atomic_stream(path: str | os.PathLike):
+    """Yield a `SpooledTemp` for `path`; rename it into place only if the block succeeds (the
+    atomic write of a file too large to render in memory first). OutputError naming `path` on
+    any refusal of the disk, with nothing left behind."""
+    path = Path(path)
+    make_parent(path)
+    spool = SpooledTemp(path)
+    try:
+        yield spool
+        spool.commit()
+    finally:
+        spool.discard()
 
 
 def _write_new(path: Path, data: bytes, exclusive: bool = False) -> None:

@@ -55,3 +55,24 @@ def fake_summaries(cells, widths, command, h, limits, accuracy, effects=None):
         out[:, k, :] = code[:, None] + np.rint(w * 1000) + np.arange(len(SUMMARY_FIELDS))
     out[:, :, 0] = out[:, :, 0] / 7.0 + command.f_left
     return out
+
+
+def fake_items(scene, start, stop):
+    """`fake_summaries` of items [start, stop) of a scene, (n, n_w, n_fields) in item order."""
+    cells, cmd = scene.cells(start, stop)
+    out = np.empty((stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS)))
+    for c in np.unique(cmd):
+        sel = cmd == c
+        out[sel] = fake_summaries(cells[sel], scene.widths, scene.commands[c], scene.h,
+                                  scene.limits, scene.accuracy)
+    return out
+
+
+def block_in_memory(scene, items, start=0):
+    """Summaries of items [start, start + len(items)) as a block held in memory (no file)."""
+    from sweep import __version__
+    from sweep.storage.store import KIND_PART, Block
+
+    return Block(path=None, kind=KIND_PART, start=start, stop=start + len(items),
+                 config_hash=scene.config_hash, version=__version__, frozen=scene.frozen(),
+                 compute_seconds=0.0, data=items)

@@ -169,6 +169,26 @@ def test_disk_full_is_one_line_and_keeps_finished_parts(full_dir, tmp_path):
     assert not leftovers(full_dir) and not (full_dir / "a.h5").exists()
 
 
+def test_merge_onto_a_full_disk_is_one_line_and_leaves_nothing(full_dir, done):
+    """The store is written to disk as it grows (P13, flat memory): a disk that fills up halfway
+    through is still one line from a real process, never an error inside the HDF5 library (which
+    crashed the process at exit), and no temporary is left."""
+    out = full_dir / "m.h5"
+    with open(full_dir / "filler", "wb") as fh:           # leave a few KiB of the 64 free
+        fh.write(b"\0" * 56 * 1024)
+    res = subprocess.run([sys.executable, "-m", "sweep", "merge", str(done / "run"), "--out",
+                          str(out)], capture_output=True, text=True)
+    assert res.returncode == 2, res.stderr
+    assert "no space left on device" in res.stderr and str(out) in res.stderr
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert sorted(p.name for p in full_dir.iterdir()) == ["filler"]
+    (full_dir / "filler").unlink()                         # with room, the same merge works
+    res = subprocess.run([sys.executable, "-m", "sweep", "merge", str(done / "run"), "--out",
+                          str(out)], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert _variables(out) == _variables(done / "a.h5")
+
+
 # ---------------------------------------------------------------------------------------------
 # Existing files
 # ---------------------------------------------------------------------------------------------

@@ -4,6 +4,7 @@ import pytest
 from click.testing import CliRunner
 
 import sweep.grid
+import sweep.runs.rundir
 from sweep.compute.batch import manipulation_cells
 from sweep.cli import main
 from sweep.kernels.records import new_finger_arrays, new_force_arrays, new_outcome_arrays
@@ -11,6 +12,7 @@ from sweep.compute.manipulation import ManipulationChunk
 from sweep.grid import BYTES_PER_POINT, FORCE_BYTES_PER_POINT, map_bytes_per_point
 from sweep.model import Accuracy, Effects, Limits
 from sweep.config.parse import scene_from_dict
+from sweep.storage.store import write_bytes
 from sweep_cases import tiny, write_config
 
 
@@ -55,6 +57,34 @@ def test_a_run_that_does_not_fit_is_refused_before_anything_is_written(tmp_path,
         assert res.exit_code == 2 and len(lines) == 1, res.output
         assert "GiB" in lines[0] and ("free" in lines[0] or "fit" in lines[0])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml"]
+
+
+def test_what_a_merge_holds_does_not_grow_with_the_designs():
+    """A merge holds one shard and one range of a part's poses at a time (store.write_bytes):
+    more l1 values inside the range (the same geometry groups, the same pose lattices) change
+    nothing for shards of the same size, while the whole sweep's results grow."""
+    small = scene_from_dict(tiny(outputs={"manipulation": True}))
+    big = scene_from_dict(tiny(designs={"l1": [0.8, 0.9, 1.0, 1.1, 1.2]},
+                               outputs={"manipulation": True}))
+    assert big.n_maps == 2.5 * small.n_maps and big.group_size == small.group_size
+    assert write_bytes(big, 8) == write_bytes(small, 8) > write_bytes(small, 4)
+    assert big.held_bytes() > small.held_bytes()
+
+
+def test_a_merge_that_does_not_fit_is_refused_before_anything_is_written(tmp_path,
+                                                                         monkeypatch):
+    cfg = write_config(tmp_path / "c.yaml", tiny())
+    for k in range(2):
+        res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(tmp_path / "runs"),
+                                        "--chunks", "2", "--chunk", str(k), "--no-progress"])
+        assert res.exit_code == 0, res.output
+    monkeypatch.setattr(sweep.runs.rundir, "available_memory", lambda: 1 << 10)
+    res = CliRunner().invoke(main, ["merge", str(tmp_path / "runs"), "--out",
+                                    str(tmp_path / "m.h5")])
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert res.exit_code == 2 and len(lines) == 1, res.output
+    assert "GiB" in lines[0] and "free" in lines[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.yaml", "runs"]
 
 
 def test_streamed_merge_of_chunks_equals_the_one_pass_merge():

@@ -19,17 +19,7 @@ from sweep.storage.store import (
     KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_block, read_store,
     store_arrays, write_block, write_store,
 )
-from sweep_cases import fake_summaries, tiny
-
-
-def fake_items(scene, start, stop):
-    cells, cmd = scene.cells(start, stop)
-    out = np.empty((stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS)))
-    for c in np.unique(cmd):
-        sel = cmd == c
-        out[sel] = fake_summaries(cells[sel], scene.widths, scene.commands[c], scene.h,
-                                  scene.limits, scene.accuracy)
-    return out
+from sweep_cases import block_in_memory, fake_items, fake_summaries, tiny
 
 
 def write_shards(scene, root, n_chunks):
@@ -102,7 +92,7 @@ def test_several_commands_add_a_command_dimension(tmp_path):
                                        {"f_left": 0.4, "f_right": 1.6}]))
     full = fake_items(s, 0, s.n_items)
     path = tmp_path / "r.h5"
-    write_store(path, s, full, timings={}, created_by="test")
+    write_store(path, s, [block_in_memory(s, full)], timings={}, created_by="test")
     with xr.open_dataset(path, engine="h5netcdf") as ds:
         assert ds["Lambda"].dims == STORE_DIMS + ("command",)
         np.testing.assert_array_equal(ds["f_left"].values, [1.0, 0.4])
@@ -114,7 +104,7 @@ def test_several_commands_add_a_command_dimension(tmp_path):
 
 def test_store_describes_itself(tmp_path, scene):
     path = tmp_path / "r.h5"
-    write_store(path, scene, fake_items(scene, 0, scene.n_items),
+    write_store(path, scene, [block_in_memory(scene, fake_items(scene, 0, scene.n_items))],
                 timings=dict(wall_seconds=2.0, compute_seconds=1.0, maps_per_second=32.0),
                 created_by="test")
     with xr.open_dataset(path, engine="h5netcdf") as ds:
@@ -165,7 +155,8 @@ def test_status_and_merge_of_a_complete_run(tmp_path, scene):
     assert st.complete and [s.state for s in st.shards] == ["done"] * 4
     merge_shards(root, tmp_path / "m.h5")
     direct = tmp_path / "d.h5"
-    write_store(direct, scene, fake_items(scene, 0, scene.n_items), {}, "test")
+    write_store(direct, scene, [block_in_memory(scene, fake_items(scene, 0, scene.n_items))], {},
+                "test")
     a, b = read_store(tmp_path / "m.h5"), read_store(direct)
     assert set(a.variables) == set(b.variables)
     for f in a.variables:

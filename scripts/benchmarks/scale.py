@@ -8,6 +8,12 @@ chunk size): then its chunk processes should need what the smaller config's need
 compute time should grow with its maps. Prints one Markdown table and the ratios; also checks
 that the maps both configs share have bitwise the same summaries (exit code 1 if not). Long:
 two whole sweeps (configs/paper.yaml and configs/paper-4x.yaml: 86,400 + 345,600 maps).
+
+With --merge-trees NAME=TREE ..., the same shards of both configs are then merged again by each
+of those source trees (`python -m sweep merge` with PYTHONPATH=TREE, e.g. before=<old tree>
+after=.), trees rotating, each tree's kernels warmed first by an untimed merge: the merge's
+peak memory of old and new code side by side in one run, and whether each tree's stores hold
+the same content as the first tree's (every dataset and attribute but timings and provenance).
 """
 from __future__ import annotations
 
@@ -31,12 +37,20 @@ def add_arguments(ap) -> None:
     ap.add_argument("config_b")
     ap.add_argument("chunks_b", type=int)
     ap.add_argument("--work", type=Path, required=True, help="scratch folder (must be empty)")
+    ap.add_argument("--merge-trees", nargs="+", metavar="NAME=TREE", default=[],
+                    help="then merge both configs' shards again with each of these source trees "
+                         "(the folders holding sweep/), e.g. before=<old tree> after=.")
 
 
-def measured(args: list[str]) -> tuple[float, float]:
-    """(wall seconds, peak resident MiB) of one `sweep` process."""
+def measured(args: list[str], tree: Path | None = None) -> tuple[float, float]:
+    """(wall seconds, peak resident MiB) of one `sweep` process (of `tree`'s sweep if given)."""
     started = time.perf_counter()
-    proc = subprocess.Popen([str(SWEEP), *args], stdout=subprocess.DEVNULL)
+    if tree is None:
+        proc = subprocess.Popen([str(SWEEP), *args], stdout=subprocess.DEVNULL)
+    else:
+        proc = subprocess.Popen([sys.executable, "-m", "sweep", *args], stdout=subprocess.DEVNULL,
+                                env=dict(os.environ, PYTHONPATH=str(tree.resolve())),
+                                cwd=str(tree))
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - started
     if os.waitstatus_to_exitcode(status) != 0:
@@ -62,7 +76,7 @@ def run_config(config: str, chunks: int, work: Path) -> dict:
     with h5py.File(store, "r") as f:
         n_maps = int(f.attrs["n_maps"])
         compute = float(f.attrs["compute_seconds"])
-    return dict(name=name, store=store, chunks=chunks, maps=n_maps, compute=compute,
+    return dict(name=name, store=store, rundir=rundir, chunks=chunks, maps=n_maps, compute=compute,
                 wall=sum(chunk_wall) + merge_wall, chunk_peak=max(chunk_peak),
                 chunk_peak_median=float(np.median(chunk_peak)), merge_peak=merge_peak,
                 merge_wall=merge_wall)
@@ -91,6 +105,7 @@ def shared_maps_equal(a: Path, b: Path) -> tuple[int, bool]:
 
 
 def run(args) -> int:
+    args.work = args.work.resolve()              # the merges of --merge-trees run in each tree
     args.work.mkdir(parents=True, exist_ok=True)
     header(NAME)
     rows = []
@@ -111,4 +126,42 @@ def run(args) -> int:
           f"merge peak x{b['merge_peak'] / a['merge_peak']:.3f}")
     n, same = shared_maps_equal(a["store"], b["store"])
     print(f"maps in both stores: {n:,}, summaries bitwise equal: {same}")
+    if args.merge_trees:
+        same &= merge_with_trees(args.merge_trees, rows, args.work)
     return 0 if same else 1
+
+
+def merge_with_trees(specs: list[str], rows: list[dict], work: Path) -> bool:
+    """Merge each config's shards with each tree (rotating), print peak and wall side by side;
+    True if every tree's stores hold the first tree's content."""
+    from sweep.storage.store import store_differences
+
+    trees = [(name, Path(tree)) for name, _, tree in (spec.partition("=") for spec in specs)]
+    for name, tree in trees:                     # warm each tree's kernel cache (untimed)
+        measured(["merge", str(rows[0]["rundir"]), "--out", str(work / f"warm-{name}.h5"),
+                  "--no-refine"], tree)
+    result = {}
+    for k, r in enumerate(rows):
+        order = trees[k % len(trees):] + trees[:k % len(trees)]
+        for name, tree in order:
+            out = work / f"{r['name']}-{name}.h5"
+            result[r["name"], name] = measured(["merge", str(r["rundir"]), "--out", str(out),
+                                                "--no-refine"], tree) + (out,)
+            print(f"  {r['name']} merge by {name}: {result[r['name'], name][0]:.1f} s, peak "
+                  f"{result[r['name'], name][1]:.0f} MiB", flush=True)
+    print("\n| config | tree | merge peak MiB | merge wall s | same content as "
+          f"{trees[0][0]}'s store |")
+    print("|---|---|---|---|---|")
+    all_same = True
+    for r in rows:
+        for name, _ in trees:
+            wall, peak, out = result[r["name"], name]
+            diff = store_differences(result[r["name"], trees[0][0]][2], out)
+            all_same &= not diff
+            print(f"| {r['name']} | {name} | {peak:.0f} | {wall:.1f} | "
+                  f"{'yes' if not diff else '; '.join(diff[:3])} |")
+    a, b = rows
+    for name, _ in trees:
+        print(f"{name}: merge peak {b['name']} / {a['name']} x"
+              f"{result[b['name'], name][1] / result[a['name'], name][1]:.3f}")
+    return all_same

@@ -140,15 +140,7 @@ class HullReduction:
         """MODEL 10 parameter usage: per parameter (w, l1, l2, r1, r2), the hull-vertex range
         divided by the search range, averaged over the poses with a positive value. NaN where
         no pose has a positive value, or where a search range is 0 (the usage is undefined)."""
-        search_ranges = np.asarray(search_ranges, dtype=np.float64)
-        if search_ranges.shape != (_hull.N_PARAMS,) or (search_ranges < 0).any():
-            raise ValueError(f"search_ranges must be {_hull.N_PARAMS} non-negative numbers")
-        positive = self.values() > 0.0
-        if not positive.any():
-            return np.full(_hull.N_PARAMS, np.nan)
-        mean_range = self.parameter_ranges()[positive].mean(axis=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(search_ranges > 0, mean_range / search_ranges, np.nan)
+        return usage_of(self.parameter_ranges(), self.values() > 0.0, search_ranges)
 
     def hull(self, pose: int) -> dict:
         """The hull at one pose: vertices (CCW from the lowest-then-leftmost), and per vertex the
@@ -205,9 +197,14 @@ class HullReduction:
 # ---------------------------------------------------------------------------------------------
 # Sparse per-part reductions and the manipulation data of a chunk of work items
 # ---------------------------------------------------------------------------------------------
-#: Poses reduced at once: the dense per-pose arrays of a batch are (poses x capacity x 12)
-#: doubles, so batching bounds the memory of a merge whatever the number of poses.
+#: Kept points reduced at once: a batch's dense per-pose arrays are (poses x capacity x 12)
+#: doubles, its capacity its fullest pose's kept points, so a batch holds as many poses as fit
+#: BATCH_ROWS padded rows (at most POSE_BATCH, at least one), poses of like size together. That
+#: bounds the memory of a merge whatever the number of poses and however many points one pose
+#: keeps (up to 1,249 in the paper sweep, where batches of 2,048 poses each padded to that took
+#: 0.5 GB, and 4,594 in a sweep of 4x its designs).
 POSE_BATCH = 2048
+BATCH_ROWS = POSE_BATCH * DEFAULT_CAPACITY
 
 
 def _raw_rows(fx, fy, params) -> np.ndarray:
@@ -220,13 +217,47 @@ def _raw_rows(fx, fy, params) -> np.ndarray:
     return rows
 
 
+def usage_of(ranges: np.ndarray, positive: np.ndarray, search_ranges) -> np.ndarray:
+    """MODEL 10 parameter usage from the poses' parameter ranges (n_poses, 5): their mean over
+    the poses with a positive value, divided by the search ranges; NaN where no pose has a
+    positive value, or where a search range is 0 (the usage is undefined)."""
+    search_ranges = np.asarray(search_ranges, dtype=np.float64)
+    if search_ranges.shape != (_hull.N_PARAMS,) or (search_ranges < 0).any():
+        raise ValueError(f"search_ranges must be {_hull.N_PARAMS} non-negative numbers")
+    if not positive.any():
+        return np.full(_hull.N_PARAMS, np.nan)
+    mean_range = ranges[positive].mean(axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(search_ranges > 0, mean_range / search_ranges, np.nan)
+
+
+def batch_bounds(kept: np.ndarray, rows: int | None = None,
+                 poses: int | None = None) -> list[int]:
+    """Cuts 0 = c0 < c1 < ... = n of n poses with `kept` points each into consecutive batches of
+    at most `poses` (POSE_BATCH) poses whose dense arrays (poses x the fullest pose's points) have
+    at most `rows` (BATCH_ROWS) rows, or of one pose."""
+    rows = BATCH_ROWS if rows is None else rows
+    poses = POSE_BATCH if poses is None else poses
+    cuts = [0]
+    fullest = 0
+    for p, k in enumerate(np.asarray(kept, dtype=np.int64).tolist()):
+        fullest = max(fullest, k, 1)
+        if p > cuts[-1] and ((p - cuts[-1] + 1) * fullest > rows or p - cuts[-1] == poses):
+            cuts.append(p)
+            fullest = max(k, 1)
+    if len(kept):
+        cuts.append(len(kept))
+    return cuts
+
+
 @dataclass
 class PartReduction:
     """The Scenario B reduction of one part over the poses that ever received a force, stored
     ragged: `pose_ids` (sorted, unique flat lattice indices), per pose `n_hull` and its kept rows
     `rows[offsets[p]:offsets[p+1]]` (hull vertices first, CCW, then near points; kernels/hull.py)
-    with their smallest geometry index `first`. Memory follows the kept points, a handful per
-    pose; every operation works on batches of POSE_BATCH poses."""
+    with their smallest geometry index `first`. Memory follows the kept points (19 per pose on
+    average in the paper sweep, more as designs are added); every operation works on batches of
+    poses (`batch_bounds`)."""
 
     pose_ids: np.ndarray
     offsets: np.ndarray
@@ -277,38 +308,43 @@ class PartReduction:
         return PartReduction.merge_all([self, other])
 
     def _batches(self):
-        """Dense HullReductions of POSE_BATCH poses at a time: (first pose, reduction)."""
-        n = self.pose_ids.size
-        for p0 in range(0, n, POSE_BATCH):
-            p1 = min(p0 + POSE_BATCH, n)
-            a, b = self.offsets[p0], self.offsets[p1]
-            yield p0, HullReduction.from_arrays(dict(
-                offsets=self.offsets[p0:p1 + 1] - a, n_hull=self.n_hull[p0:p1],
-                force=self.rows[a:b, :2],
-                param_min=self.rows[a:b, _hull.PMIN:_hull.PMIN + _hull.N_PARAMS],
-                param_max=self.rows[a:b, _hull.PMAX:_hull.PMAX + _hull.N_PARAMS],
-                first_geometry=self.first[a:b]))
+        """Dense HullReductions of a batch of poses at a time: (the poses' indices, reduction).
+        Poses go in order of their kept points (`batch_bounds`), so that a batch pads little."""
+        kept = np.diff(self.offsets)
+        order = np.argsort(kept, kind="stable")
+        bounds = batch_bounds(kept[order])
+        for p0, p1 in zip(bounds[:-1], bounds[1:]):
+            poses = order[p0:p1]
+            lengths = kept[poses]
+            offsets = np.zeros(poses.size + 1, dtype=np.int64)
+            np.cumsum(lengths, out=offsets[1:])
+            rows = np.repeat(self.offsets[poses] - offsets[:-1], lengths) + np.arange(offsets[-1])
+            yield poses, HullReduction.from_arrays(dict(
+                offsets=offsets, n_hull=self.n_hull[poses], force=self.rows[rows, :2],
+                param_min=self.rows[rows, _hull.PMIN:_hull.PMIN + _hull.N_PARAMS],
+                param_max=self.rows[rows, _hull.PMAX:_hull.PMAX + _hull.N_PARAMS],
+                first_geometry=self.first[rows]))
 
     def values(self) -> np.ndarray:
         """Per pose (of pose_ids) the MODEL 10 value: the inscribed radius of its hull."""
         out = np.zeros(self.pose_ids.size)
-        for p0, red in self._batches():
-            out[p0:p0 + red.n_poses] = red.values()
+        for poses, red in self._batches():
+            out[poses] = red.values()
         return out
+
+    def values_and_ranges(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per pose (of pose_ids) its value and its parameter ranges (HullReduction's)."""
+        values = np.zeros(self.pose_ids.size)
+        ranges = np.zeros((self.pose_ids.size, _hull.N_PARAMS))
+        for poses, red in self._batches():
+            ranges[poses] = red.parameter_ranges()
+            values[poses] = red.values()
+        return values, ranges
 
     def parameter_usage(self, search_ranges=PAPER_SEARCH_RANGES) -> np.ndarray:
         """MODEL 10 parameter usage (see HullReduction.parameter_usage), over all poses."""
-        search_ranges = np.asarray(search_ranges, dtype=np.float64)
-        ranges = np.zeros((self.pose_ids.size, _hull.N_PARAMS))
-        positive = np.zeros(self.pose_ids.size, dtype=bool)
-        for p0, red in self._batches():
-            ranges[p0:p0 + red.n_poses] = red.parameter_ranges()
-            positive[p0:p0 + red.n_poses] = red.values() > 0.0
-        if not positive.any():
-            return np.full(_hull.N_PARAMS, np.nan)
-        mean_range = ranges[positive].mean(axis=0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            return np.where(search_ranges > 0, mean_range / search_ranges, np.nan)
+        values, ranges = self.values_and_ranges()
+        return usage_of(ranges, values > 0.0, search_ranges)
 
     def to_arrays(self) -> dict:
         return dict(pose_ids=self.pose_ids, offsets=self.offsets, n_hull=self.n_hull,
@@ -371,11 +407,7 @@ class ManipulationChunk:
             stop = ch.stop
             a_metric.append(ch.a_metric)
             for key, reds in ch.parts.items():
-                if key not in parts:
-                    parts[key] = dict(reds)
-                else:
-                    parts[key] = {name: parts[key][name].merge(reds[name])
-                                  for name in REDUCTIONS}
+                parts[key] = fold_part(parts.get(key), reds)
         if start is None:
             raise ValueError("no chunks to merge")
         return cls(start, stop, np.concatenate(a_metric), dict(sorted(parts.items())))
@@ -393,14 +425,74 @@ class ManipulationChunk:
 
     @classmethod
     def read(cls, group) -> "ManipulationChunk":
-        parts = {}
-        for key in group:
-            if not key.startswith("part_"):
-                continue
-            _, ri, mui = key.split("_")
-            parts[(int(ri), int(mui))] = {
-                name: PartReduction.from_arrays({k: group[key][name][k][...]
-                                                 for k in group[key][name]})
-                for name in REDUCTIONS}
+        parts = {key: read_part(group, key) for key in part_keys(group)}
         return cls(int(group.attrs["item_start"]), int(group.attrs["item_stop"]),
                    group["a_metric"][...], parts)
+
+
+def fold_part(merged: dict | None, reds: dict) -> dict:
+    """One part's reductions merged so far (None: none yet) with those of the next chunk in item
+    order: what `ManipulationChunk.merge_stream` does for every part, so that a merge of one part
+    at a time over the same chunks gives bitwise its hulls."""
+    if merged is None:
+        return dict(reds)
+    return {name: merged[name].merge(reds[name]) for name in REDUCTIONS}
+
+
+def part_keys(group) -> list[tuple[int, int]]:
+    """The parts (r index, mu index) whose reductions a chunk's group (`write`) holds, sorted."""
+    keys = []
+    for name in group:
+        if name.startswith("part_"):
+            _, ri, mui = name.split("_")
+            keys.append((int(ri), int(mui)))
+    return sorted(keys)
+
+
+def read_part(group, key: tuple[int, int], poses: tuple[int, int] | None = None) -> dict | None:
+    """The reductions of one part from a chunk's group (`write`), of its poses whose lattice
+    index lies in [poses[0], poses[1]) if given (only their rows are read); None if the group
+    has no reductions of that part."""
+    name = f"part_{key[0]}_{key[1]}"
+    if name not in group:
+        return None
+    out = {}
+    for red in REDUCTIONS:
+        g = group[name][red]
+        if poses is None:
+            out[red] = PartReduction.from_arrays({k: g[k][...] for k in g})
+            continue
+        ids, offsets = g["pose_ids"][...], g["offsets"][...]
+        p0, p1 = np.searchsorted(ids, poses)
+        a, b = offsets[p0], offsets[p1]
+        out[red] = PartReduction.from_arrays(dict(
+            pose_ids=ids[p0:p1], offsets=offsets[p0:p1 + 1] - a, n_hull=g["n_hull"][p0:p1],
+            rows=g["rows"][a:b], first=g["first"][a:b]))
+    return out
+
+
+def part_rows(group, key: tuple[int, int], n_poses: int) -> np.ndarray:
+    """Per pose of a part's lattice (flat index < n_poses), the kept points that a chunk's group
+    (`write`) holds for it, both reductions together (zeros if it has none of that part)."""
+    name = f"part_{key[0]}_{key[1]}"
+    out = np.zeros(n_poses, dtype=np.int64)
+    if name in group:
+        for red in REDUCTIONS:
+            g = group[name][red]
+            out += np.bincount(g["pose_ids"][...], weights=np.diff(g["offsets"][...]),
+                               minlength=n_poses).astype(np.int64)
+    return out
+
+
+def pose_cuts(rows: np.ndarray, budget: int) -> list[tuple[int, int]]:
+    """Consecutive ranges [lo, hi) of pose indices covering 0..len(rows) whose `rows` add up to
+    at most `budget`, or of one pose."""
+    cuts, lo, total = [], 0, 0
+    for p, n in enumerate(np.asarray(rows, dtype=np.int64).tolist()):
+        if p > lo and total + n > budget:
+            cuts.append((lo, p))
+            lo, total = p, 0
+        total += n
+    if len(rows):
+        cuts.append((lo, len(rows)))
+    return cuts

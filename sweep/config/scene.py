@@ -268,11 +268,13 @@ class Scene:
         return cell_bytes(ny, nx_max, n_shared, len(self.values["w"]), self.manipulation)
 
     def held_bytes(self) -> int:
-        """What a run holds besides its threads' cells: the summaries of every item, twice (the
-        assembled array and the store's image, rendered in memory before it is written), and
-        with the manipulation metric a sub-chunk's Scenario B entries and the merged per-part
-        reductions (KEPT_PER_POSE points of REDUCTION_ROW_BYTES per pose of every part's
-        lattice, both reductions)."""
+        """What a run holds besides its threads' cells, at most: the summaries of every item,
+        twice, and with the manipulation metric a sub-chunk's Scenario B entries and the merged
+        per-part reductions (KEPT_PER_POSE points of REDUCTION_ROW_BYTES per pose of every
+        part's lattice, both reductions). A chunk holds that for its own items (its shard,
+        assembled and rendered in memory before it is written); a one-machine run writes its
+        store a block and a part at a time, holding less (`sweep.storage.store.write_bytes`, what
+        a merge checks)."""
         total = 2 * self.n_maps * len(SUMMARY_FIELDS) * 8
         if self.manipulation:
             # the Scenario B entries of a sub-chunk's cells (batch.manipulation_cells)

@@ -33,8 +33,7 @@ from ..outputs import (
 from ..config.parse import scene_from_frozen
 from ..config.scene import Scene
 from ..storage.store import (
-    KIND_SHARD, Block, CorruptFile, StoreError, assemble, assemble_manipulation, first_line,
-    read_block, write_store,
+    KIND_SHARD, Block, CorruptFile, StoreError, first_line, read_block, write_bytes, write_store,
 )
 
 
@@ -285,13 +284,16 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
                             f" ({s.path.name})" if s.path else "") for s in bad)
         raise StoreError(f"cannot merge {root}: {len(bad)} of {status.n_chunks} shards not usable: "
                          f"{desc}")
-    need = scene_from_frozen(read_block(status.shards[0].path, with_data=False).frozen).held_bytes()
+    scene = scene_from_frozen(read_block(status.shards[0].path, with_data=False).frozen)
+    # the store is written a shard and a part at a time: the largest shard counts, not the sweep
+    need = write_bytes(scene, max(s.range[1] - s.range[0] for s in status.shards))
     available = available_memory()
-    if need > 0.8 * available:   # the results and merged reductions (Scene.held_bytes)
-        raise StoreError(f"cannot merge {root}: the store needs about {need / 1024**3:.1f} GiB in "
+    if need > 0.8 * available:
+        raise StoreError(f"cannot merge {root}: the merge needs about {need / 1024**3:.1f} GiB in "
                          f"memory, about {available / 1024**3:.1f} GiB free")
     with claim_output(out, overwrite=overwrite, wait=wait):
-        blocks = [read_block(s.path) for s in status.shards]
+        # without their data: the store is written from one shard at a time (write_store)
+        blocks = [read_block(s.path, with_data=False) for s in status.shards]
         scene = scene_from_frozen(blocks[0].frozen)
         for b in blocks:
             if (b.config_hash, b.version) != (scene.config_hash, blocks[0].version):
@@ -302,16 +304,14 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
         if blocks[0].version != __version__:
             raise StoreError(f"cannot merge {root}: shards written by sweep {blocks[0].version}, "
                              f"this is sweep {__version__}")
-        full = assemble(scene, blocks)
         compute = sum(b.compute_seconds for b in blocks)
         maps_dir = RunDir(root).maps
         saved = sorted(p.name for p in maps_dir.glob("*.h5")) if maps_dir.is_dir() else []
-        write_store(out, scene, full, timings=dict(
+        write_store(out, scene, blocks, timings=dict(
             compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
             created_by=f"sweep merge of {status.n_chunks} shards",
-            extra_attrs=dict(saved_maps=saved, saved_maps_dir=str(maps_dir)) if saved else None,
-            manipulation=assemble_manipulation(scene, blocks))
+            extra_attrs=dict(saved_maps=saved, saved_maps_dir=str(maps_dir)) if saved else None)
     return scene, status
 
 

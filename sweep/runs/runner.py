@@ -228,16 +228,14 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
             blocks, computed, _ = run_range(scene, 0, scene.n_items, paths.parts, progress)
             saved = save_maps(scene, 0, scene.n_items, paths.maps)
         compute = sum(b.compute_seconds for b in blocks)
-        full = assemble(scene, blocks)
         wall = time.perf_counter() - t_wall
         extra = dict(threads=n_threads)
         if saved:
             extra.update(saved_maps=saved, saved_maps_dir=str(paths.maps))
-        write_store(out, scene, full, timings=dict(
+        write_store(out, scene, blocks, timings=dict(
             wall_seconds=wall, compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
-            created_by="sweep run", extra_attrs=extra,
-            manipulation=assemble_manipulation(scene, blocks))
+            created_by="sweep run", extra_attrs=extra)
         if not keep_parts:
             shutil.rmtree(paths.parts, ignore_errors=True)
     return RunResult(out, scene.n_maps, computed, wall, compute)

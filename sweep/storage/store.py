@@ -11,16 +11,21 @@ name is always complete, see `sweep.outputs`):
 - the *store* holds every map's summary on the labelled dimensions
   ``l1, l2, r1, r2, w, r, mu`` (plus ``command`` when a sweep has several), one variable per
   summary field, and root attributes with the config, effects, grid, provenance and timings.
-  It opens with ``xarray.open_dataset(path, engine="h5netcdf")``.
+  It opens with ``xarray.open_dataset(path, engine="h5netcdf")``. It is written from the blocks
+  one block, one geometry group and one range of a part's poses at a time, straight to its
+  temporary file (`write_store`), so that writing it holds no more as the sweep grows
+  (`write_bytes`).
 
 Which files a run has, where they live and what state they are in (work directories, shards,
 manifest, status, merge) is `sweep.runs.rundir`'s.
 """
 from __future__ import annotations
 
+import contextlib
 import json
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 import h5py
@@ -30,10 +35,11 @@ from .. import __version__
 from ..grid import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from ..config.chunks import Range, exact_cover
 from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store)
-                 atomic_amend, atomic_file, iter_names, provenance, read_json_attr, set_root_attrs,
-                 write_coordinate, write_variable)
-from ..compute.manipulation import PARAMETER_NAMES, ManipulationChunk
-from ..config.scene import ITEM_ORDER, STORE_DIMS, Scene
+                 FILL_CACHE_BYTES, atomic_amend, atomic_file, create_variable, iter_names,
+                 provenance, read_json_attr, set_root_attrs, write_coordinate, write_variable)
+from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChunk, fold_part,
+                                    part_keys, part_rows, pose_cuts, read_part, usage_of)
+from ..config.scene import GROUP_AXES, ITEM_ORDER, REDUCTION_ROW_BYTES, STORE_DIMS, Scene
 from ..model import DEFAULT_OUTPUTS
 from ..schema import (
     COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on,
@@ -156,13 +162,13 @@ def read_block(path: Path, with_data: bool = True) -> Block:
 # ---------------------------------------------------------------------------------------------
 # The store
 # ---------------------------------------------------------------------------------------------
-def store_arrays(scene: Scene, full: np.ndarray) -> dict[str, np.ndarray]:
-    """(n_items, n_w, n_fields) in item order -> one array per field on `scene.store_dims`."""
-    shape = scene.item_shape + (len(scene.values["w"]), len(SUMMARY_FIELDS))
-    axes = ITEM_ORDER + ("w", "field")
-    arr = np.asarray(full, dtype=np.float64).reshape(shape)
+def store_arrays(scene: Scene, items: np.ndarray, one_group: bool = False) -> dict[str, np.ndarray]:
+    """Summaries (n_items, n_w, n_fields) in item order -> one array per field on
+    `scene.store_dims`; with `one_group`, those of one geometry group (its l1, l2 and r axes of
+    length 1: the store's slab `group_slab`)."""
     target = scene.store_dims if "command" in scene.store_dims else scene.store_dims + ("command",)
-    arr = arr.transpose([axes.index(d) for d in target] + [axes.index("field")])
+    arr = _item_axes(scene, np.asarray(items, dtype=np.float64), ("w", "field"),
+                     target + ("field",), one_group)
     if "command" not in scene.store_dims:
         arr = arr[..., 0, :]
     out = {}
@@ -177,14 +183,64 @@ def store_arrays(scene: Scene, full: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, created_by: str,
-                extra_attrs: dict | None = None,
-                manipulation: ManipulationChunk | None = None) -> None:
-    """The results store (see the module docstring), written atomically; with the manipulation
-    metric's variables when `manipulation` (the merged data of every item) is given."""
-    arrays = store_arrays(scene, full)
+def _item_axes(scene: Scene, values: np.ndarray, trailing: tuple[str, ...],
+               target: tuple[str, ...], one_group: bool) -> np.ndarray:
+    """Values of items in item order (first axis; then the axes `trailing`) on the axes `target`
+    (every ITEM_ORDER axis and `trailing`); of every item, or of one geometry group."""
+    lead = (1,) * GROUP_AXES if one_group else scene.item_shape[:GROUP_AXES]
+    axes = ITEM_ORDER + trailing
+    arr = values.reshape(lead + scene.item_shape[GROUP_AXES:] + values.shape[1:])
+    return arr.transpose([axes.index(d) for d in target])
+
+
+def group_slab(scene: Scene, group: int, dims: Sequence[str]) -> tuple[slice, ...]:
+    """Where geometry group `group` (items group * group_size onwards) lies in a variable on
+    `dims`: one index of l1, l2 and r, every value of the other dimensions."""
+    at = dict(zip(ITEM_ORDER[:GROUP_AXES],
+                  np.unravel_index(group, scene.item_shape[:GROUP_AXES])))
+    return tuple(slice(int(at[d]), int(at[d]) + 1) if d in at else slice(None) for d in dims)
+
+
+def iter_groups(scene: Scene, blocks: Sequence[Block], read) -> Iterator[tuple[int, list]]:
+    """(group index, arrays of its items) of every geometry group in item order, from blocks
+    that tile every item (in item order), reading one block at a time: `read(block)` gives
+    arrays whose first axis is the block's items. A group split between blocks is gathered."""
+    size = scene.group_size
+    pending = None
+    for b in blocks:
+        arrays = read(b)
+        i = b.start
+        while i < b.stop:
+            group, offset = divmod(i, size)
+            n = min(size - offset, b.stop - i)
+            pieces = [a[i - b.start:i - b.start + n] for a in arrays]
+            i += n
+            if n == size:
+                yield group, pieces
+                continue
+            if offset == 0:
+                pending = [np.empty((size,) + p.shape[1:], dtype=p.dtype) for p in pieces]
+            for whole, piece in zip(pending, pieces):
+                whole[offset:offset + n] = piece
+            if offset + n == size:
+                yield group, pending
+                pending = None
+
+
+def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict,
+                created_by: str, extra_attrs: dict | None = None) -> None:
+    """The results store (see the module docstring) of blocks that tile every item, written
+    atomically; with the manipulation metric's variables (from the blocks' files) when the scene
+    has it.
+
+    Memory stays flat as the sweep grows: every variable is created at its full size and filled
+    one geometry group at a time, reading one block at a time; the manipulation reductions are
+    merged one part at a time; the file is written as it grows (`atomic_file(stream=True)`).
+    The content is bit for bit that of the assembled arrays written at once."""
+    blocks = _in_item_order(blocks, 0, scene.n_items)
     dims = scene.store_dims
-    with atomic_file(path) as f:
+    fields = [n for n in SUMMARY_FIELDS if summary_field_on(n, scene.effects.names_on())]
+    with atomic_file(path, stream=True) as f:
         for d in dims:
             if d == "command":
                 write_coordinate(f, d, np.arange(len(scene.commands), dtype=np.int32),
@@ -196,11 +252,32 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
                 write_variable(f, k, np.array([getattr(c, k) for c in scene.commands]),
                                ("command",), dict(long_name=f"tendon tension of the "
                                                   f"{k[2:]} finger", units="force (model units)"))
-        for name in SUMMARY_FIELDS:
-            if summary_field_on(name, scene.effects.names_on()):
-                write_variable(f, name, arrays[name], dims, FIELD_ATTRS[name])
-        if manipulation is not None:
-            _write_manipulation(f, scene, manipulation)
+        # held open while they are filled: closing a variable writes out its chunk cache, and
+        # every later group would read, inflate and deflate those chunks again
+        out = {name: create_variable(f, name, scene.store_shape,
+                                     np.int32 if name in COUNT_FIELDS else np.float64, dims,
+                                     FIELD_ATTRS[name])
+               for name in fields}
+        if scene.manipulation:
+            _write_manipulation_coordinates(f, scene)
+            for name in ("manipulation_a", "manipulation_a_area"):
+                out[name] = create_variable(f, name, [scene.axis_len(d) for d in A_DIMS],
+                                            np.float64, A_DIMS, MANIPULATION_ATTRS[name])
+        h2 = scene.h * scene.h
+        for group, items in iter_groups(scene, blocks, partial(_block_items, scene)):
+            arrays = store_arrays(scene, items[0], one_group=True)
+            at = group_slab(scene, group, dims)
+            for name in fields:
+                out[name][at] = arrays[name]
+            if scene.manipulation:        # one command (scene validation)
+                a = _item_axes(scene, items[1], (), A_DIMS + ("command",), True)[..., 0]
+                at = group_slab(scene, group, A_DIMS)
+                out["manipulation_a"][at] = a
+                out["manipulation_a_area"][at] = a * h2
+        if scene.manipulation:
+            for name, value in part_arrays(scene, blocks).items():
+                write_variable(f, name, value, PART_ARRAY_DIMS.get(name, ("r", "mu")),
+                               MANIPULATION_ATTRS[name])
         attrs = dict(
             title=f"energy-map sweep summaries: {scene.name}",
             sweep_file_kind=KIND_STORE, name=scene.name,
@@ -221,7 +298,7 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
         )
         if len(scene.commands) == 1:
             attrs.update(f_left=scene.commands[0].f_left, f_right=scene.commands[0].f_right)
-        if manipulation is not None:
+        if scene.manipulation:
             attrs.update(manipulation_scenario_a_commands_f_left=list(SCENARIO_A_COMMANDS),
                          manipulation_scenario_a_computed_f_left=list(SCENARIO_A_EXTREMES),
                          manipulation_scenario_b_command=[1.0, 1.0],
@@ -230,6 +307,29 @@ def write_store(path: Path, scene: Scene, full: np.ndarray, timings: dict, creat
                          "geometric cage score S_geo; values are unitless")
         attrs.update(extra_attrs or {})
         set_root_attrs(f, attrs)
+
+
+def _in_item_order(blocks: Sequence[Block], start: int, stop: int) -> list[Block]:
+    """The blocks that tile items [start, stop) exactly, in item order; StoreError if none do."""
+    pick = exact_cover(start, stop, [b.range for b in blocks])
+    if pick is None:
+        have = sorted(b.range for b in blocks)
+        raise StoreError(f"blocks {have} do not cover items {start}-{stop}")
+    return [blocks[i] for i in pick]
+
+
+def _block_items(scene: Scene, b: Block) -> list[np.ndarray]:
+    """What the store needs of a block per item: its summaries and, with the manipulation
+    metric, its Scenario A metrics."""
+    out = [b.data if b.data is not None else read_block(b.path).data]
+    if scene.manipulation:
+        with _manipulation_group(b.path) as g:
+            a = g["a_metric"][...]
+        if a.shape != (b.stop - b.start,):
+            raise CorruptFile(f"{b.path.name}: {a.shape[0]} Scenario A metrics for items "
+                              f"{b.start}-{b.stop}")
+        out.append(a)
+    return out
 
 
 @dataclass
@@ -267,6 +367,62 @@ def read_store(path: Path) -> StoreView:
     except (OSError, KeyError, ValueError, json.JSONDecodeError) as exc:
         raise StoreError(f"{path}: cannot read results store ({first_line(exc)})") from None
     return StoreView(path, dims, coords, variables, var_attrs, attrs, frozen, refine)
+
+
+#: Root attributes that say how and when a store was made, not what it holds: they may differ
+#: between stores of the same results (`store_differences`).
+RUN_ATTRS = ("created_by", "created_utc", "wall_seconds", "compute_seconds", "maps_per_second",
+             "threads", "saved_maps_dir", "refine_created_utc", "refine_level_seconds")
+
+
+def store_differences(path_a: Path, path_b: Path, ignore: Sequence[str] = RUN_ATTRS) -> list[str]:
+    """What differs between the contents of two HDF5 files (empty: the same): every group and
+    dataset (type, shape, chunks, compression, dimension scales, the bytes of its values) and
+    every attribute, except the root attributes `ignore`."""
+    out: list[str] = []
+
+    def attrs(obj) -> dict:
+        return {k: v for k, v in obj.attrs.items() if k not in ("DIMENSION_LIST",
+                                                                 "REFERENCE_LIST")}
+
+    def same(x, y) -> bool:
+        x, y = np.asarray(x), np.asarray(y)
+        if x.dtype != y.dtype or x.shape != y.shape:
+            return False
+        return x.tolist() == y.tolist() if x.dtype.kind == "O" else x.tobytes() == y.tobytes()
+
+    def visit(a, b, where: str) -> None:
+        if set(a) != set(b):
+            out.append(f"{where or '/'}: members {sorted(set(a) ^ set(b))} in one file only")
+        ka, kb = attrs(a), attrs(b)
+        skip = set(ignore) if where == "" else set()
+        for k in sorted((set(ka) | set(kb)) - skip):
+            if k not in ka or k not in kb or not same(ka[k], kb[k]):
+                out.append(f"{where or '/'}: attribute {k} differs")
+        for name in sorted(set(a) & set(b)):
+            x, y = a[name], b[name]
+            here = f"{where}/{name}"
+            if isinstance(x, h5py.Group) and isinstance(y, h5py.Group):
+                visit(x, y, here)
+                continue
+            if not (isinstance(x, h5py.Dataset) and isinstance(y, h5py.Dataset)):
+                out.append(f"{here}: a dataset in one file only")
+                continue
+            layout = [(d.dtype, d.shape, d.chunks, d.compression, d.compression_opts, d.shuffle,
+                       d.fletcher32, [[s.name for s in dim.values()] for dim in d.dims])
+                      for d in (x, y)]
+            if layout[0] != layout[1]:
+                out.append(f"{here}: layout {layout[0]} and {layout[1]}")
+            elif not same(x[...], y[...]):
+                out.append(f"{here}: values differ")
+            ka, kb = attrs(x), attrs(y)
+            for k in sorted(set(ka) | set(kb)):
+                if k not in ka or k not in kb or not same(ka[k], kb[k]):
+                    out.append(f"{here}: attribute {k} differs")
+
+    with h5py.File(path_a, "r") as fa, h5py.File(path_b, "r") as fb:
+        visit(fa, fb, "")
+    return out
 
 
 def part_dims(scene: Scene) -> tuple[str, ...]:
@@ -311,14 +467,22 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
             **attrs))
 
 
-def read_manipulation(path: Path) -> ManipulationChunk:
-    """The manipulation data of a block file (CorruptFile if missing or unreadable)."""
+@contextlib.contextmanager
+def _manipulation_group(path: Path):
+    """The `manipulation` group of a block file, open for reading (CorruptFile if missing or
+    unreadable)."""
     try:
         with h5py.File(path, "r") as f:
-            return ManipulationChunk.read(f["manipulation"])
+            yield f["manipulation"]
     except (OSError, KeyError, ValueError) as exc:
         raise CorruptFile(f"{Path(path).name}: no readable manipulation data "
                           f"({first_line(exc)})") from None
+
+
+def read_manipulation(path: Path) -> ManipulationChunk:
+    """The manipulation data of a block file (CorruptFile if missing or unreadable)."""
+    with _manipulation_group(path) as g:
+        return ManipulationChunk.read(g)
 
 
 def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
@@ -328,12 +492,9 @@ def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
     if not scene.manipulation:
         return None
     stop = scene.n_items if stop is None else stop
-    pick = exact_cover(start, stop, [b.range for b in blocks])
-    if pick is None:
-        raise StoreError(f"blocks {sorted(b.range for b in blocks)} do not cover items "
-                         f"{start}-{stop}")
-    # one block at a time (pick is in item order): memory stays flat as the sweep grows
-    return ManipulationChunk.merge_stream(read_manipulation(blocks[i].path) for i in pick)
+    # one block at a time (in item order): the merged data of the range and one block are held
+    return ManipulationChunk.merge_stream(read_manipulation(b.path)
+                                          for b in _in_item_order(blocks, start, stop))
 
 
 MANIPULATION_ATTRS = {
@@ -364,14 +525,28 @@ MANIPULATION_ATTRS = {
 }
 
 
-def manipulation_arrays(scene: Scene, chunk: ManipulationChunk) -> dict[str, np.ndarray]:
-    """The store's manipulation variables from the merged data of every item."""
-    shape = scene.item_shape
-    axes = list(ITEM_ORDER)
-    a = chunk.a_metric.reshape(shape)[:, :, :, 0]          # one command (scene validation)
-    axes.remove("command")
-    target = ("l1", "l2", "r1", "r2", "r", "mu")
-    a = np.ascontiguousarray(a.transpose([axes.index(d) for d in target]))
+#: Dimensions of the Scenario A variables, and of the per-part ones other than (r, mu).
+A_DIMS = ("l1", "l2", "r1", "r2", "r", "mu")
+PART_ARRAY_DIMS = {"parameter_usage": ("r", "mu", "parameter"),
+                   "manipulation_b_pose_value": ("r", "mu", "pose_row", "pose_column")}
+
+
+#: Kept points of a part's reductions read from all its blocks at once when they are merged: the
+#: poses of a part are merged a range at a time (`part_arrays`), so that what a merge holds stays
+#: flat as the sweep grows (one part of the paper sweep keeps up to 1,249 points at a pose and
+#: 120,000 in all, a 4x sweep 4,594 and 244,000).
+MERGE_ROWS = 1 << 16
+
+
+def part_arrays(scene: Scene, blocks: Sequence[Block]) -> dict[str, np.ndarray]:
+    """The store's Scenario B variables (per part) from the reductions in the blocks' files
+    (blocks that tile every item, in item order).
+
+    One part and one range of its poses at a time (`MERGE_ROWS`): a pose's hull depends only on
+    its own points, so each range is folded over the blocks as `ManipulationChunk.merge_stream`
+    folds the whole part (every block holding the part, in item order: the same merges of every
+    pose, so the same hulls bit for bit), and the per-pose values are joined in pose order
+    before they are summed."""
     n_r, n_mu = len(scene.values["r"]), len(scene.values["mu"])
     n_cols = scene.lattice_columns()
     n_max, m = int(n_cols.max()), scene.lattice_rows()
@@ -381,25 +556,69 @@ def manipulation_arrays(scene: Scene, chunk: ManipulationChunk) -> dict[str, np.
     n_positive = np.zeros((n_r, n_mu), dtype=np.int32)
     usage = np.full((n_r, n_mu, len(PARAMETER_NAMES)), np.nan)
     search = np.array([max(scene.values[p]) - min(scene.values[p]) for p in PARAMETER_NAMES])
-    for (ri, mui), reds in chunk.parts.items():
-        red = reds["all"]
-        values = red.values()
+    holders: dict[tuple[int, int], list[Block]] = {}
+    for block in blocks:
+        with _manipulation_group(block.path) as g:
+            for key in part_keys(g):
+                holders.setdefault(key, []).append(block)
+    for (ri, mui), held_by in sorted(holders.items()):
         width = 2 * int(n_cols[ri]) + 1
-        rows, cols = np.divmod(red.pose_ids, width)
-        pose_value[ri, mui, rows, cols - int(n_cols[ri]) + n_max] = values
+        pose_ids, values, ranges, uncrossed = [], [], [], []
+        for merged in _merged_by_poses(held_by, (ri, mui), (m + 1) * width):
+            v, r = merged["all"].values_and_ranges()
+            pose_ids.append(merged["all"].pose_ids)
+            values.append(v)
+            ranges.append(r)
+            uncrossed.append(merged["uncrossed"].values())
+        values = np.concatenate(values)
+        pose_rows, cols = np.divmod(np.concatenate(pose_ids), width)
+        pose_value[ri, mui, pose_rows, cols - int(n_cols[ri]) + n_max] = values
         b[ri, mui] = values.sum()
-        b_uncrossed[ri, mui] = reds["uncrossed"].values().sum()
+        b_uncrossed[ri, mui] = np.concatenate(uncrossed).sum()
         n_positive[ri, mui] = int((values > 0).sum())
-        usage[ri, mui] = red.parameter_usage(search)
+        usage[ri, mui] = usage_of(np.concatenate(ranges), values > 0.0, search)
     h2 = scene.h * scene.h
-    return dict(manipulation_a=a, manipulation_a_area=a * h2, manipulation_b=b,
-                manipulation_b_area=b * h2, manipulation_b_uncrossed=b_uncrossed,
+    return dict(manipulation_b=b, manipulation_b_area=b * h2, manipulation_b_uncrossed=b_uncrossed,
                 manipulation_b_poses=n_positive, parameter_usage=usage,
                 manipulation_b_pose_value=pose_value)
 
 
-def _write_manipulation(f, scene: Scene, chunk: ManipulationChunk) -> None:
-    arrays = manipulation_arrays(scene, chunk)
+def _merged_by_poses(held_by: Sequence[Block], key: tuple[int, int], n_poses: int):
+    """The reductions of part `key` (of a lattice of `n_poses` poses) merged over the blocks
+    holding it, one range of poses after another, each range's points from every block adding
+    up to at most MERGE_ROWS (or one pose)."""
+    rows = np.zeros(n_poses, dtype=np.int64)
+    for block in held_by:
+        with _manipulation_group(block.path) as g:
+            rows += part_rows(g, key, n_poses)
+    for poses in pose_cuts(rows, MERGE_ROWS):
+        merged = None
+        for block in held_by:
+            with _manipulation_group(block.path) as g:
+                merged = fold_part(merged, read_part(g, key, poses))
+        yield merged
+
+
+def write_bytes(scene: Scene, block_items: int) -> int:
+    """What `write_store` holds besides the interpreter and its modules, from blocks of at most
+    `block_items` items: one block's summaries and one geometry group's in the store's layout,
+    the chunk cache of every variable, and with the manipulation metric one range of a part's
+    poses being merged (MERGE_ROWS kept points, each held about 8 times over by
+    `PartReduction.reduce`: the two folded, their concatenation, its sorted copy, the output), a
+    dense batch (BATCH_ROWS), one part's per-pose results and every part's pose values. It does
+    not grow with the sweep, only with the blocks and the parts' lattices."""
+    n_summaries = len(scene.values["w"]) * len(SUMMARY_FIELDS)
+    total = (block_items + 3 * scene.group_size) * n_summaries * 8
+    total += (len(SUMMARY_FIELDS) + 2) * FILL_CACHE_BYTES
+    if scene.manipulation:
+        lattice = (scene.lattice_rows() + 1) * (2 * int(scene.lattice_columns().max()) + 1)
+        total += 8 * MERGE_ROWS * REDUCTION_ROW_BYTES + 2 * BATCH_ROWS * REDUCTION_ROW_BYTES
+        n_parts = len(scene.values["r"]) * len(scene.values["mu"])
+        total += lattice * 8 * (2 + len(PARAMETER_NAMES) + n_parts) + block_items * 8
+    return total
+
+
+def _write_manipulation_coordinates(f, scene: Scene) -> None:
     n_max = int(scene.lattice_columns().max())
     write_coordinate(f, "parameter", np.array(PARAMETER_NAMES, dtype=object),
                      dict(long_name="design parameter of the parameter usage"))
@@ -407,27 +626,16 @@ def _write_manipulation(f, scene: Scene, chunk: ManipulationChunk) -> None:
                      dict(long_name="pose row j: part centre y = r + j h", units="1"))
     write_coordinate(f, "pose_column", np.arange(-n_max, n_max + 1, dtype=np.int32),
                      dict(long_name="pose column i: part centre x = i h", units="1"))
-    dims = {"manipulation_a": ("l1", "l2", "r1", "r2", "r", "mu"),
-            "manipulation_a_area": ("l1", "l2", "r1", "r2", "r", "mu"),
-            "parameter_usage": ("r", "mu", "parameter"),
-            "manipulation_b_pose_value": ("r", "mu", "pose_row", "pose_column")}
-    for name, value in arrays.items():
-        write_variable(f, name, value, dims.get(name, ("r", "mu")), MANIPULATION_ATTRS[name])
 
 
 def assemble(scene: Scene, blocks: Sequence[Block], start: int = 0,
              stop: int | None = None) -> np.ndarray:
     """Summaries of items [start, stop) from blocks that tile it exactly."""
     stop = scene.n_items if stop is None else stop
-    pick = exact_cover(start, stop, [b.range for b in blocks])
-    if pick is None:
-        have = sorted(b.range for b in blocks)
-        raise StoreError(f"blocks {have} do not cover items {start}-{stop}")
     out = np.empty((stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS)), dtype=np.float64)
-    for i in pick:
-        b = blocks[i]
-        data = b.data if b.data is not None else read_block(b.path).data
-        out[b.start - start:b.stop - start] = data
+    for b in _in_item_order(blocks, start, stop):
+        out[b.start - start:b.stop - start] = b.data if b.data is not None else \
+            read_block(b.path).data
     return out
 
 
