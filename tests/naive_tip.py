@@ -318,10 +318,11 @@ def _result(mode, t1, t2, k1, k2, tip_normal=None):
 
 
 def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
-                     reconfig_step=0.01, root_tol=1e-12, trace=None):
+                     reconfig_step=0.01, root_tol=1e-12, trace=None, tip_start=None):
     """Configuration one finger reaches with `tip_contact` (D15). Returns a dict like
     naive.naive_finger (mode, t1, t2, k1, k2, tip_overlap=False), plus `tip_normal` (finger
-    frame) for the modes with a tip contact. `trace`, a list, receives the D15 case taken."""
+    frame) for the modes with a tip contact. `trace`, a list, receives the D15 case taken;
+    `tip_start`, a list, the (t1, t2) where the tip path began, if the finger took it (D29)."""
     if not finger_feasible(dx, dy, r):
         nan = float("nan")
         return _result(-1, nan, nan, nan, nan)
@@ -335,8 +336,10 @@ def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
         (_, n, _), _ = tip_contact(dx, dy, t1, t2, l1, l2)
         return _result(mode, t1, t2, k1, l2, tip_normal=n if mode != SLIPPED else None)
 
-    def follow_tip(t2_0):
+    def follow_tip(t1_0, t2_0):
         note("tip_path")
+        if tip_start is not None:
+            tip_start.append((t1_0, t2_0))
         mode, t1, t2, why = tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min,
                                      theta2_max, reconfig_step, root_tol)
         note(why)
@@ -351,7 +354,7 @@ def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
                                        reconfig_step, root_tol)
         if mode == SLIPPED:                 # case 5: the tip takes over at the crossing
             note("case5")
-            return follow_tip(t2)
+            return follow_tip(t1, t2)
         return _result(DISTAL_ONLY, t1, t2, 0.0, k2)
 
     def tip_hold_or_path(t1, t2, extra_contacts=(), k1=0.0):
@@ -361,7 +364,7 @@ def naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
         stops = engaged_stops(t1, t2, theta2_min, theta2_max)
         if finger_holds(tau, contacts, stops, mu, B=B):
             return tip_result(PROXIMAL_TIP if extra_contacts else TIP_ONLY, t1, t2, k1)
-        return follow_tip(t2)
+        return follow_tip(t1, t2)
 
     kind, t1, k = rigid_sweep(dx, dy, l1, l2, r, theta2_min)
 

@@ -7,6 +7,7 @@ map-level promise: no caged point has crossed fingers."""
 import math
 import os
 
+import naive_tip
 import numpy as np
 import pytest
 from hypothesis import given
@@ -513,7 +514,16 @@ def test_a_finger_that_took_the_tip_path_stops_on_its_own_path(case):
             dx = (-x if s == 0 else x) - 0.5 * w
             on, t1s, t2s, _ = tip_path_start(dx, y, mode[s, j, i], *settled[s], finger, solver,
                                              blocks)
-            paths.append((settled[s], on, (t1s, t2s), dx))
+            # where the tip path began, by the independent reference (tests/naive_tip.py)
+            start = []
+            naive_tip.naive_tip_finger(dx, y, l1, l2, 0.2, 0.14, r, mu, th, finger.theta2_max,
+                                       Accuracy().reconfig_step, Accuracy().root_tol,
+                                       tip_start=start)
+            assert on == (len(start) == 1 and mode[s, j, i] in TIP_MODES
+                          and settled[s] != start[0])
+            if on:
+                assert (t1s, t2s) == pytest.approx(start[0], abs=1e-6)
+            paths.append((settled[s], on, start[0] if on else (t1s, t2s), dx))
 
         ends = [own_path_end_reference(path, th) for path in paths]
         n_scan = 4000
