@@ -484,12 +484,11 @@ def test_a_finger_that_took_the_tip_path_stops_on_its_own_path(case):
     not cross, no link passes through the part and a finger stopped on its tip path has its
     tip on the disc (D29)."""
     from sweep.kernels.finger import tip_path_start
-    from sweep.compute.layout import kernel_records as records
 
     l1, l2, w, r, mu = case
     design, part, tip, both = tip_scene_maps(*case)
-    finger, solver, blocks = records(design, part, Limits(), Accuracy(),
-                                     Effects(friction=mu > 0, tip_contact=True))
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(),
+                                            Effects(friction=mu > 0, tip_contact=True))
     th = finger.theta2_min
     mode, t1, t2 = (np.asarray(tip.fields[k]) for k in ("finger_mode", "theta1", "theta2"))
     new_mode, n1, n2 = (np.asarray(both.fields[k]) for k in ("finger_mode", "theta1", "theta2"))
@@ -591,14 +590,13 @@ def test_grid_points_with_a_tip_path_finger_are_the_one_position_answer(case):
     slides' off-grid positions by point_outcome (collide_on_own_paths): at every grid point
     the two give the same fingers (bit for bit), class and energy (the map sums its energy
     from per-finger fields, in another order: to 1e-12, as at every point)."""
-    from sweep.compute.layout import kernel_records as records
     from sweep.kernels.field import collide_on_own_paths, point_outcome
     from sweep.kernels.records import Hand
 
     l1, l2, w, r, mu = case
     design, part, tip, both = tip_scene_maps(*case)
     effects = Effects(friction=mu > 0, tip_contact=True, finger_collision=True)
-    finger, solver, blocks = records(design, part, Limits(), Accuracy(), effects)
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), effects)
     hand = Hand(w, 1.0, 1.0, 0.1)
     mode = np.asarray(tip.fields["finger_mode"])
     pc, energy = np.asarray(both.fields["point_class"]), np.asarray(both.fields["energy"])
