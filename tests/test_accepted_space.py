@@ -293,7 +293,7 @@ def test_tip_path_ends_where_the_distal_link_reaches_the_disc_at_the_tip():
     from naive_tip import naive_tip_finger
     from sweep.kernels.finger import solve_finger
     from kernel_calls import solver_settings
-    from sweep.kernels.records import EffectBlocks, FingerModel, TipContact
+    from sweep.kernels.records import NO_EFFECTS, FingerModel, TipContact
     from sweep.model import SLIPPED
 
     l1 = l2 = 1.0
@@ -301,7 +301,7 @@ def test_tip_path_ends_where_the_distal_link_reaches_the_disc_at_the_tip():
     th2min, th2max = math.radians(-89.999), math.radians(90.0)
     got = solve_finger(dx, dy, FingerModel(l1, l2, 1.0, 1.0, r, 0.0, th2min, th2max),
                        solver_settings(0.01, 1e-12),
-                       EffectBlocks(TipContact(0.01, 1e-12), None, None))
+                       NO_EFFECTS._replace(tip_contact=TipContact(True)))
     ref = naive_tip_finger(dx, dy, l1, l2, 1.0, 1.0, r, 0.0, th2min, th2max)
     assert got.mode == ref["mode"] == SLIPPED
     assert got.t1 == pytest.approx(ref["t1"], abs=1e-9)
@@ -319,13 +319,14 @@ def test_tip_path_stops_where_the_proximal_link_reaches_the_part():
     from naive_tip import PROXIMAL_TIP, naive_tip_finger
     from sweep.kernels.finger import solve_finger
     from kernel_calls import solver_settings
-    from sweep.kernels.records import EffectBlocks, FingerModel, TipContact
+    from sweep.kernels.records import NO_EFFECTS, FingerModel, TipContact
 
     l1, l2, r1, r2, r = 500.0, 86.52376598789029, 10**0.05, 1.1220184543019633, 122.1733280394845
     dx, dy = -362.1046561831639, r                       # on the palm row, over the palm
     th2min, th2max, step, tol = 0.0, math.pi, 0.0024350084815844947, 7.047176434405351e-07
     got = solve_finger(dx, dy, FingerModel(l1, l2, r1, r2, r, 0.0, th2min, th2max),
-                       solver_settings(step, tol), EffectBlocks(TipContact(step, tol), None, None))
+                       solver_settings(step, tol),
+                       NO_EFFECTS._replace(tip_contact=TipContact(True)))
     ref = naive_tip_finger(dx, dy, l1, l2, r1, r2, r, 0.0, th2min, th2max, step, tol)
     assert got.mode == ref["mode"] == PROXIMAL_TIP
     assert got.t1 == pytest.approx(ref["t1"], abs=1e-9)
@@ -343,7 +344,7 @@ def test_tip_path_ends_on_a_proximal_stop_passed_within_one_step():
     from naive_tip import naive_tip_finger
     from sweep.kernels.finger import solve_finger
     from kernel_calls import solver_settings
-    from sweep.kernels.records import EffectBlocks, FingerModel, TipContact
+    from sweep.kernels.records import NO_EFFECTS, FingerModel, TipContact
     from sweep.model import TIP_ONLY
 
     l1 = l2 = 1e-3
@@ -352,7 +353,7 @@ def test_tip_path_ends_on_a_proximal_stop_passed_within_one_step():
     th2max = math.radians(90.0)
     got = solve_finger(dx, dy, FingerModel(l1, l2, r1, r2, r, 0.0, 0.0, th2max),
                        solver_settings(step, 1e-12),
-                       EffectBlocks(TipContact(step, 1e-12), None, None))
+                       NO_EFFECTS._replace(tip_contact=TipContact(True)))
     ref = naive_tip_finger(dx, dy, l1, l2, r1, r2, r, 0.0, 0.0, th2max, step, 1e-12)
     assert got.mode == ref["mode"] == TIP_ONLY and got.t1 == ref["t1"] == 0.0
     assert got.t2 == pytest.approx(ref["t2"], abs=1e-9)

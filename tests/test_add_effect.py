@@ -50,11 +50,11 @@ TOY = {
     ],
     "sweep/kernels/records.py": [
         # 2. records: the block's record, and its builder in BLOCKS (a map-level block: last)
-        ("class FingerCollision(NamedTuple):", "class Toy(NamedTuple):\n    gain: float\n\n\n",
-         "before"),
-        ("        float(accuracy.reconfig_step), float(accuracy.root_tol))),\n)\n",
-         '    ("toy", lambda effects, accuracy, tension: Toy(float(effects.toy_gain))),\n',
-         "before-last-line"),
+        ("class FingerCollision(NamedTuple):",
+         "class Toy(NamedTuple):\n    on: bool\n    gain: float\n\n\n", "before"),
+        ("     FingerCollision(False, 0.0, 0.0)),\n)\n",
+         '    ("toy", lambda effects, accuracy, tension: Toy(True, float(effects.toy_gain)),\n'
+         '     Toy(False, 0.0)),\n', "before-last-line"),
     ],
     "sweep/kernels/field.py": [
         # 3. kernels: a small function taking the block, called where the physics needs it
@@ -62,9 +62,9 @@ TOY = {
          'S_TOY = SUMMARY_INDEX["n_toy"]\n', "after"),
         ("    summary[S_COLLISION_CHANGED] = n_collision_changed\n",
          "    summary[S_TOY] = toy_points(effects.toy, summary[S_POINTS])\n\n\n"
-         "@njit(cache=True)\n"
+         "@inner\n"
          "def toy_points(toy, n):\n"
-         "    if toy is None:\n"
+         "    if not toy.on:\n"
          "        return 0.0\n"
          "    return n if toy.gain >= 0 else 0.0\n", "after"),
     ],

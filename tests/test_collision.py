@@ -14,14 +14,15 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sweep.kernels.hand import meeting_progress, resolve_collisions, stopped_finger
-from sweep.kernels.records import FingerCollision, new_finger_arrays
+from sweep.kernels.records import FingerCollision, new_finger_arrays, no_settled_fingers
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
 from sweep.model import (FREE, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX, Accuracy, Design,
                          Effects, Grid, Limits, Part)
 
 TH2MIN, TH2MAX = math.radians(-5.0), math.radians(90.0)
-COLLISION = FingerCollision(0.01, 1e-12)
+COLLISION = FingerCollision(True, 0.01, 1e-12)
+NOT_HANDLED = np.zeros((0, 0), dtype=np.bool_)
 
 
 def finger_record(l1, l2):
@@ -133,7 +134,8 @@ def test_resolve_collisions_matches_the_reference_point_by_point():
     fingers.t1[:] = rng.uniform(0.3, math.pi, size=(2, 1, n))
     fingers.t2[:] = rng.uniform(TH2MIN, TH2MAX, size=(2, 1, n))
     before = fingers.t1.copy(), fingers.t2.copy()
-    n_changed = resolve_collisions(np.array([1.0]), finger, w, fingers, COLLISION)
+    n_changed = resolve_collisions(np.array([1.0]), finger, w, fingers, COLLISION,
+                                   no_settled_fingers(), NOT_HANDLED)
     expected_changed = 0
     for i in range(n):
         left = (before[0][0, 0, i], before[1][0, 0, i])
@@ -217,13 +219,14 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
 # resolve_collisions_reference, steps and bisects at every crossed point. Same bits asked.
 def _settled_fields(design, part, h):
     """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
-    from sweep.kernels.field import cell_map
+    from sweep.kernels import field
     from sweep.grid import grid_index_bounds, palm_half_width_steps
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
-    _, ys, fingers, _, _, _ = cell_map(finger, solver, blocks, design.w,
-                                       palm_half_width_steps(design.w, h), i1, j1 + 1, h, 1.0,
-                                       1.0, True, False)
+    step = palm_half_width_steps(design.w, h)
+    shared, m_lo, ys = field.shared_finger_field(finger, solver, blocks, np.array([step]),
+                                                 np.array([i1]), j1 + 1, h)
+    _, fingers = field.gather_fingers(shared, m_lo, step, i1, j1 + 1, h)
     return finger, ys, fingers
 
 
@@ -252,7 +255,8 @@ def test_map_way_gives_the_reference_search_bits(seed):
         part = Part(0.4 + 0.4 * int(rng.integers(0, 4)), 0.1 + 0.3 * int(rng.integers(0, 4)))
         finger, ys, settled = _settled_fields(design, part, 0.1)
         fast, reference = _copy(settled), _copy(settled)
-        n_fast = resolve_collisions(ys, finger, w, fast, COLLISION)
+        n_fast = resolve_collisions(ys, finger, w, fast, COLLISION, no_settled_fingers(),
+                                    NOT_HANDLED)
         n_reference = resolve_collisions_reference(ys, finger, w, reference, COLLISION)
         assert n_fast == n_reference
         _assert_same_fingers(fast, reference)
@@ -282,7 +286,8 @@ def test_map_way_gives_the_reference_search_bits_on_any_fingers(l1, l2, w, seed)
     fingers.tip_overlap[:] = False
     fast, reference = _copy(fingers), _copy(fingers)
     ys = np.array([1.0])
-    assert resolve_collisions(ys, finger, w, fast, COLLISION) == \
+    assert resolve_collisions(ys, finger, w, fast, COLLISION, no_settled_fingers(),
+                               NOT_HANDLED) == \
         resolve_collisions_reference(ys, finger, w, reference, COLLISION)
     _assert_same_fingers(fast, reference)
 
@@ -295,7 +300,8 @@ def test_sweep_way_gives_the_reference_search_summaries():
     from sweep.kernels import field as cell_kernels
     from sweep.kernels.hand import resolve_collisions_reference
     from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
-    from sweep.kernels.records import NO_EFFECTS, Hand, new_outcome_arrays
+    from sweep.kernels.records import (NO_EFFECTS, Hand, new_outcome_arrays, no_force_arrays,
+                                       no_settled_fingers)
     from sweep.grid import grid_index_bounds, palm_half_width_steps
     from sweep.model import Command
 
@@ -325,7 +331,8 @@ def test_sweep_way_gives_the_reference_search_summaries():
             outs = new_outcome_arrays(ny, xs.size)
             summary = np.empty(N_SUMMARY)
             map_from_fingers(xs, ys, finger, solver, Hand(w, 1.0, 1.0, h), NO_EFFECTS, fingers,
-                             outs, None, np.empty(xs.size * ny, dtype=np.int64), summary, False)
+                             outs, no_force_arrays(), np.empty(xs.size * ny, dtype=np.int64),
+                             summary, False, True, True, no_settled_fingers())
             summary[S_COLLISION_CHANGED] = n_changed
             assert np.array_equal(out[c, k], summary, equal_nan=True), (cell, w)
 

@@ -157,8 +157,9 @@ def test_fewer_outputs_give_the_same_bits_for_what_they_keep(full_map, names):
 def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
     # the pipeline itself: with caging off, no containment, L_open, crossing or trajectory is
     # computed (fields keep their "not computed" values), and Lambda is NaN
-    from sweep.kernels.field import finger_field, map_from_fingers
-    from sweep.kernels.records import Hand, new_finger_arrays, new_outcome_arrays
+    from sweep.kernels.field import finger_rows, map_from_fingers
+    from sweep.kernels.records import (Hand, new_finger_arrays, new_outcome_arrays,
+                                       no_force_arrays, no_settled_fingers)
     from sweep.compute.layout import finger_offsets, kernel_records, map_grid
     from sweep.model import Accuracy, Limits
     from sweep.schema import SUMMARY_INDEX
@@ -169,12 +170,13 @@ def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
     for caging in (True, False):
         fingers = new_finger_arrays(2, *g.shape)
         for side, dxs in enumerate(finger_offsets(g.i, DESIGN.w, g.h)):
-            finger_field(dxs, g.y, finger, solver, blocks, fingers, side)
+            finger_rows(0, g.y.size, dxs, g.y, finger, solver, blocks, fingers, side)
         outs = new_outcome_arrays(*g.shape)
         summary = np.empty(len(SUMMARY_INDEX))
         map_from_fingers(g.x, g.y, finger, solver, Hand(DESIGN.w, 1.0, 1.0, g.h), blocks,
-                         fingers, outs, None, np.empty(g.x.size * g.y.size, dtype=np.int64),
-                         summary, True, True, caging)
+                         fingers, outs, no_force_arrays(),
+                         np.empty(g.x.size * g.y.size, dtype=np.int64), summary, True, True,
+                         caging, no_settled_fingers())
         results[caging] = outs, summary
     (full, s_full), (energy, s_energy) = results[True], results[False]
     assert full.contained.any() and full.crossed.any() and (full.end_state != END_NONE).any()

@@ -261,9 +261,10 @@ def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s
     from naive import lower_stop_admissible
 
     from sweep.kernels.finger import sticks_on_lower_stop
+    from sweep.kernels.records import NO_EFFECTS
 
     finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)
-    assert sticks_on_lower_stop(k2, 0.0, t2, finger, None) == \
+    assert sticks_on_lower_stop(k2, 0.0, t2, finger, NO_EFFECTS.joint_springs) == \
         lower_stop_admissible(t2, k2, l1, r1, r2, mu_s)
 
 

@@ -10,11 +10,10 @@ import sweep.kernels as kernels
 
 
 def test_cache_directory_is_keyed_by_the_kernel_sources():
-    from sweep.kernels.field import summarize_cells_shared
-    from sweep.kernels.field import finger_field
+    from sweep.kernels.field import finger_rows, summarize_cells
 
     key = f"kernels-{kernels._kernel_source_digest()}"
-    for dispatcher in (finger_field, summarize_cells_shared):
+    for dispatcher in (finger_rows, summarize_cells):
         assert key in dispatcher._cache._cache_path
     # the user's own Numba setting is left as it was
     assert key not in (numba.config.CACHE_DIR or "")
@@ -41,7 +40,8 @@ def test_digest_changes_with_any_kernel_source(tmp_path, monkeypatch):
 
 def test_numba_cache_dir_is_respected(tmp_path):
     # one small kernel is enough to show where the cache goes (compiling them all takes long)
-    code = ("from sweep.kernels.finger import wrap_angle; assert wrap_angle(7.0) < 3.2")
+    code = ("from sweep.kernels.finger import distal_tangency; "
+            "assert distal_tangency(2.0, 1.0, 0.5, 1.0, 0.4)[1] > 0.0")
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
     subprocess.run([sys.executable, "-c", code], check=True, env=env)
     caches = list(tmp_path.glob("kernels-*/**/*.nbi"))

@@ -5,14 +5,16 @@ import graph, read from the source with `ast` (nothing is imported). The checks:
 - an edge never points up the layers (a lower layer imports nothing from a higher one);
 - the graph has no cycle;
 - the command modules of `sweep/cli/` do not import each other (only the CLI's shared module);
-- the longest chain of imports stays within `MAX_CHAIN` modules.
-The checker itself is shown to catch a wrong-way import, a command importing another and a
-cycle on small synthetic graphs.
+- no module outside `sweep/kernels/` (nor a test or script) uses a kernel compiled without a
+  Python wrapper (`kernels/jit.py`: `inner`), which would crash the interpreter.
+The checker itself is shown to catch a wrong-way import, a command importing another, a cycle
+and a use of an inner kernel on small synthetic sources.
+
+(No limit on the length of import chains: it made one kernel module hold four ideas.)
 """
 from __future__ import annotations
 
 import ast
-import functools
 from pathlib import Path
 
 PACKAGE = Path(__file__).resolve().parent.parent / "sweep"
@@ -35,10 +37,6 @@ LAYERS = (
 #: module may import; the package `sweep.cli` itself assembles the commands.
 CLI_PACKAGE = "sweep.cli"
 CLI_SHARED = ("sweep.cli.common",)
-#: The longest import chain allowed, counted in modules (see docs/architecture.md, "Layers"):
-#: 14 today, of which 7 are the kernels (cells -> field -> trajectory -> point -> collision ->
-#: part -> model); 10 once those kernels are merged as docs/architecture.md plans.
-MAX_CHAIN = 10
 
 
 def module_names(root: Path = PACKAGE) -> dict[str, Path]:
@@ -125,38 +123,11 @@ def violations(graph: dict[str, set[str]], layers=LAYERS, cli_package=CLI_PACKAG
     return found
 
 
-def longest_chain(graph: dict[str, set[str]]) -> list[str]:
-    """The longest chain of imports (a list of modules), in an acyclic graph."""
-    @functools.lru_cache(maxsize=None)
-    def chain(module):
-        return max(([module] + chain(t) for t in graph.get(module, ())),
-                   key=len, default=[module])
-    return max((chain(m) for m in graph), key=len, default=[])
-
-
 def test_the_package_obeys_its_layers():
     assert violations(import_graph()) == []
 
 
-def test_the_longest_import_chain_is_bounded():
-    assert chain_too_long(import_graph()) is None
-
-
-def chain_too_long(graph: dict[str, set[str]], limit: int = MAX_CHAIN) -> str | None:
-    """The longest chain of `graph`, written out, if it has more than `limit` modules."""
-    chain = longest_chain(graph)
-    return " -> ".join(chain) if len(chain) > limit else None
-
-
-def test_the_chain_limit_fails_on_a_deeper_graph():
-    # a chain of MAX_CHAIN modules passes; one more module on top of it fails
-    names = [f"sweep.m{i}" for i in range(MAX_CHAIN)]
-    graph = {a: {b} for a, b in zip(names, names[1:])} | {names[-1]: set()}
-    assert chain_too_long(graph) is None
-    deeper = {**graph, "sweep.top": {names[0]}}
-    assert chain_too_long(deeper) == " -> ".join(["sweep.top"] + names)
-    # and the package itself with one wrong-way import (the vocabulary reaching up into the
-    # CLI) fails the layer check
+def test_a_wrong_way_import_in_the_package_fails():
     graph = import_graph()
     wrong = {**graph, "sweep.model": graph["sweep.model"] | {"sweep.cli.map"}}
     assert "sweep.model (vocabulary) imports sweep.cli.map (CLI)" in violations(wrong)
@@ -175,8 +146,6 @@ def test_the_checker_catches_a_wrong_way_import_a_command_import_and_a_cycle():
              "sweep.cli.map": {"sweep.cli.common", "sweep.compute.maps"},
              "sweep.cli": {"sweep.cli.run", "sweep.cli.map"}}
     assert violations(clean) == []
-    assert longest_chain(clean) == ["sweep.cli", "sweep.cli.map", "sweep.compute.maps",
-                                    "sweep.kernels.finger", "sweep.model"]
     # the config layer reaching up into a map's computation (the issue's scene -> maps)
     wrong = {**clean, "sweep.config.scene": {"sweep.model", "sweep.compute.maps"}}
     assert violations(wrong) == [
@@ -236,3 +205,75 @@ def test_one_atomic_writer(tmp_path):
     (pkg / "outputs.py").write_text("import os\ndef w(a, b):\n    os.replace(a, b)\n")
     (pkg / "mine.py").write_text("import os\ndef w(a, b):\n    os.replace(a, b)\n")
     assert renames_outside(root=pkg) == ["sweep.mine:3"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Inner kernels (no Python wrapper) are called by kernels only
+# ---------------------------------------------------------------------------------------------
+ROOT = PACKAGE.parent
+
+
+def inner_kernels(kernels: Path = PACKAGE / "kernels") -> set[tuple[str, str]]:
+    """(module, function) of every kernel decorated `@inner`."""
+    found = set()
+    for path in kernels.glob("*.py"):
+        for node in ast.parse(path.read_text()).body:
+            if isinstance(node, ast.FunctionDef) and any(
+                    isinstance(d, ast.Name) and d.id == "inner" for d in node.decorator_list):
+                found.add((path.stem, node.name))
+    return found
+
+
+def kernel_names_used(source: str) -> set[tuple[str, str]]:
+    """(kernel module, name) of every name a source outside the kernels takes from them:
+    `from ...kernels.field import f`, and `field.f` after `from ...kernels import field` or
+    `import sweep.kernels.field as field`."""
+    tree = ast.parse(source)
+    used, modules = set(), {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and "kernels" in node.module.split("."):
+            rest = node.module.split(".")[node.module.split(".").index("kernels") + 1:]
+            for alias in node.names:
+                if rest:
+                    used.add((rest[0], alias.name))
+                else:
+                    modules[alias.asname or alias.name] = alias.name
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                parts = alias.name.split(".")
+                if "kernels" in parts[:-1]:
+                    modules[alias.asname or alias.name] = parts[-1]
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                and node.value.id in modules:
+            used.add((modules[node.value.id], node.attr))
+    return used
+
+
+def inner_kernels_used_outside(root: Path = ROOT) -> list[str]:
+    inner = inner_kernels(root / "sweep" / "kernels")
+    found = []
+    paths = [path for folder in ("sweep", "tests", "scripts")
+             for path in root.joinpath(folder).rglob("*.py")]
+    for path in sorted(paths):
+        if path.parent == root / "sweep" / "kernels":
+            continue
+        for module, name in sorted(kernel_names_used(path.read_text()) & inner):
+            found.append(f"{path.relative_to(root)} uses the inner kernel {module}.{name}")
+    return found
+
+
+def test_inner_kernels_are_called_by_kernels_only():
+    assert inner_kernels_used_outside() == []
+
+
+def test_the_checker_catches_an_inner_kernel_used_outside(tmp_path):
+    kernels = tmp_path / "sweep" / "kernels"
+    kernels.mkdir(parents=True)
+    (kernels / "field.py").write_text("@inner\ndef f():\n    pass\n\n@entry\ndef g():\n"
+                                      "    pass\n")
+    (tmp_path / "sweep" / "maps.py").write_text("from .kernels.field import g\n")
+    assert inner_kernels_used_outside(tmp_path) == []
+    (tmp_path / "tests").mkdir()
+    (tmp_path / "tests" / "t.py").write_text("from sweep.kernels import field as k\nk.f()\n")
+    assert inner_kernels_used_outside(tmp_path) == ["tests/t.py uses the inner kernel field.f"]

@@ -20,13 +20,15 @@ from hypothesis import strategies as st
 from naive import ReferenceGrid
 from strategies import paper_table_designs
 from sweep.compute.maps import compute_map, kernel_records
-from sweep.kernels.hand import collide, collide_near, slide_context
+from sweep.kernels.hand import collide, collide_near, no_slide_context, slide_context
 from sweep.kernels.field import point_outcome, point_outcome_below
 from sweep.kernels.records import Hand
 from sweep.kernels.field import (EMPTY_KEY, MEMO_MAX_CAPACITY, MEMO_MIN_CAPACITY,
                                       memo_for_slide, new_memo, outcome_at)
 from sweep.model import (END_NONE, FREE, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX,
                          Accuracy, Command, Design, Effects, Grid, Limits, Part)
+
+ALONE = no_slide_context()  # a position evaluated on its own (collide, not collide_near)
 
 SCENES = {
     "base": Effects(),
@@ -151,7 +153,7 @@ def test_outcome_below_a_bound_is_exact_or_a_lower_bound_above_it(design, scene,
     finger, solver, blocks = kernel_records(Design(l1, l2, r1, r2, w), Part(r, mu), Limits(),
                                             Accuracy(), SCENES[scene])
     hand = Hand(w, 1.0, 1.0, 0.05)
-    context = slide_context(finger, w, blocks.finger_collision) if near else None
+    context = slide_context(finger, w, blocks.finger_collision) if near else ALONE
     y = r + dy
     c, e = point_outcome(x, y, finger, solver, blocks, hand)
     for b in (bound, math.inf, e):
@@ -159,7 +161,7 @@ def test_outcome_below_a_bound_is_exact_or_a_lower_bound_above_it(design, scene,
         if exact:
             assert (cb, bits(eb)) == (c, bits(e))
         else:
-            assert blocks.finger_collision is not None and blocks.joint_springs is None
+            assert blocks.finger_collision.on and not blocks.joint_springs.on
             assert b < eb <= e
     assert point_outcome_below(x, y, finger, solver, blocks, hand, math.inf, context)[2]
 
@@ -197,7 +199,7 @@ def test_memo_reads_what_it_stored_and_keeps_it_when_it_grows():
         assert memo.keys.shape[0] == MEMO_MIN_CAPACITY and memo.fill[0] == 0
         points = [(0.3 + 0.01 * k, 1.5 + 0.007 * k) for k in range(40)]
         for x, y in points:
-            c, e = outcome_at(x, y, math.inf, finger, solver, blocks, hand, memo, None)
+            c, e = outcome_at(x, y, math.inf, finger, solver, blocks, hand, memo, ALONE)
             c0, e0 = point_outcome(x, y, finger, solver, blocks, hand)
             assert (c, bits(e)) == (c0, bits(e0))
         assert memo.fill[0] == len(points)
@@ -205,17 +207,17 @@ def test_memo_reads_what_it_stored_and_keeps_it_when_it_grows():
         memo.values[used, 1] = -123.0  # poison: a read returns it
         memo.values[used, 2] = 1.0
         for x, y in points:
-            assert outcome_at(x, y, math.inf, finger, solver, blocks, hand, memo, None)[1] \
+            assert outcome_at(x, y, math.inf, finger, solver, blocks, hand, memo, ALONE)[1] \
                 == -123.0
-            e_mirror = outcome_at(-x, y, math.inf, finger, solver, blocks, hand, memo, None)[1]
+            e_mirror = outcome_at(-x, y, math.inf, finger, solver, blocks, hand, memo, ALONE)[1]
             assert (e_mirror == -123.0) == mirror
         x, y = points[0]  # (x > 0: its key is the bits of (x, y) either way)
         key = (np.float64(x).view(np.int64), np.float64(y).view(np.int64))
         s = [k for k in range(memo.keys.shape[0]) if tuple(memo.keys[k]) == key][0]
         memo.values[s, 2] = 0.0  # a lower bound of -123
-        assert outcome_at(x, y, -200.0, finger, solver, blocks, hand, memo, None)[1] == -123.0
+        assert outcome_at(x, y, -200.0, finger, solver, blocks, hand, memo, ALONE)[1] == -123.0
         exact = point_outcome(x, y, finger, solver, blocks, hand)
-        assert outcome_at(x, y, 0.0, finger, solver, blocks, hand, memo, None)[1] == exact[1]
+        assert outcome_at(x, y, 0.0, finger, solver, blocks, hand, memo, ALONE)[1] == exact[1]
         assert memo.values[s, 1] == exact[1] and memo.values[s, 2] == 1.0  # now exact
         n = memo.fill[0]
         memo.fill[0] = MEMO_MIN_CAPACITY // 4 + 1  # pretend it is a quarter full: it grows
@@ -230,6 +232,6 @@ def test_memo_reads_what_it_stored_and_keeps_it_when_it_grows():
     full.fill[0] = MEMO_MAX_CAPACITY // 2  # the largest memo, half full: kept, and only read
     assert memo_for_slide(full).keys.shape[0] == MEMO_MAX_CAPACITY
     x, y = 0.41, 1.73
-    assert outcome_at(x, y, math.inf, finger, solver, blocks, hand, full, None)[1] == \
+    assert outcome_at(x, y, math.inf, finger, solver, blocks, hand, full, ALONE)[1] == \
         point_outcome(x, y, finger, solver, blocks, hand)[1]
     assert full.fill[0] == MEMO_MAX_CAPACITY // 2 and np.all(full.keys[:, 0] == EMPTY_KEY)

@@ -411,7 +411,8 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     evaluated, E, is kept."""
     from sweep.kernels.field import point_outcome
     from sweep.kernels.records import Hand
-    from sweep.kernels.field import SLIDE_DIRECTIONS, lowest_on_circle
+    from sweep.kernels.field import SLIDE_DIRECTIONS, lowest_on_circle, new_memo
+    from sweep.kernels.hand import no_slide_context
     from sweep.compute.layout import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
 
@@ -419,7 +420,7 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     hand = Hand(design.w, 1.0, 1.0, h)
     e, _, ux, uy = lowest_on_circle(0.0, 2.0, h, False, np.empty(SLIDE_DIRECTIONS), finger,
-                                    solver, blocks, hand)
+                                    solver, blocks, hand, new_memo(0, False), no_slide_context())
     east = point_outcome(h, 2.0, finger, solver, blocks, hand)[1]
     west = point_outcome(-h, 2.0, finger, solver, blocks, hand)[1]
     assert east == west  # an exact tie

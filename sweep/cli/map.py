@@ -7,7 +7,6 @@ one-line message and exit code 2 (`sweep.cli.common.user_errors`, which every co
 from __future__ import annotations
 
 import contextlib
-import time
 from pathlib import Path
 
 import click
@@ -90,6 +89,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
     """
     from ..compute.layout import map_grid
     from ..compute.maps import compute_map
+    from ..compute.warm import ensure_compiled
     from ..grid import map_bytes_per_point
     from ..model import (
         Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,
@@ -134,14 +134,9 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         for path in outputs_in_order:
             claimed.enter_context(claim_output(path, overwrite=overwrite, wait=wait))
         with numba_threads(threads):
-            # Load (or, the first time, compile) the kernels on a tiny map so the timing
-            # reported for the real map is the computation alone.
-            started = time.perf_counter()
-            compute_map(design, part, command, Grid(h=max(h, 0.5)), limits, accuracy, effects,
-                        outputs=outputs)
-            if time.perf_counter() - started > 2.0:
-                click.echo(f"kernels compiled in {time.perf_counter() - started:.1f} s "
-                           "(cached for the next run)")
+            # the first time, the kernels compile (one line says so), so that the timing
+            # reported for the map is the computation alone
+            ensure_compiled()
             m = compute_map(design, part, command, grid, limits, accuracy, effects,
                             outputs=outputs)
         write_map(out, m)

@@ -39,6 +39,7 @@ def report(stores, out, top_k, overwrite, wait):
     """
     import json
 
+    from ..compute.warm import ensure_compiled
     from ..outputs import OutputLock, make_parent
     from ..report.build import ALL_FILES, build_report
     from ..report.compare import FILES, build_comparison, comparison_identity, open_pair
@@ -84,6 +85,7 @@ def report(stores, out, top_k, overwrite, wait):
             raise UserError(f"--out: {out} already holds {present[0]}; pass --overwrite to "
                             "replace it")
         log = lambda msg: click.echo(f"report: {msg}", err=True)  # noqa: E731
+        ensure_compiled()
         if len(stores) == 1:
             build_report(stores[0], out, top_k, log=log, st=st)
         else:

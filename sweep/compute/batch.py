@@ -14,12 +14,15 @@ import numpy as np
 from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
 from ..config.scene import Scene, grid_points
-from ..kernels.field import cell_map, summarize_cells_shared, summarize_direct_map
-from ..kernels.records import Hand, ManipulationOut
+from ..kernels import field
+from ..kernels.records import (Hand, ManipulationOut, RIGHT, LEFT, new_force_arrays,
+                               new_outcome_arrays, new_finger_arrays, no_force_arrays,
+                               no_manipulation, no_settled_fingers)
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .manipulation import ManipulationChunk, PartReduction
 from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .threads import over_ranges
 
 
 @contextlib.contextmanager
@@ -66,16 +69,14 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     steps = [palm_half_width_steps(w, h) for w in widths]
     _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
                                        effects)
-    th2min, th2max = limits.theta2_min, limits.theta2_max
     if all(s is not None for s in steps):
         # whole-reach grids: columns -N..N, rows 0..M (sized without allocating them)
         bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
                   for c in cells]
         ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
-        summarize_cells_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
-                               command.f_left, command.f_right, th2min, th2max, solver, blocks,
-                               out, want, None, numba.get_num_threads())
+        _summarize_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h, command,
+                          limits, solver, blocks, out, want, no_manipulation())
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
@@ -86,9 +87,36 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
             g = map_grid(design, part, Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
             hand = Hand(float(w), command.f_left, command.f_right, float(h))
-            summarize_direct_map(finger, solver, blocks, hand, dx_left, dx_right, g.x, g.y,
-                                 out[c, k])
+            ny, nx = g.shape
+            fingers = new_finger_arrays(2, ny, nx)
+            field.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
+            field.finger_rows(0, ny, dx_right, g.y, finger, solver, blocks, fingers, RIGHT)
+            field.map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers,
+                                   new_outcome_arrays(ny, nx), no_force_arrays(),
+                                   np.empty(ny * nx, dtype=np.int64), out[c, k],
+                                   field.STABLE_POINTS, field.ALL_OUTPUTS, field.ALL_OUTPUTS,
+                                   no_settled_fingers())
     return out
+
+
+def _summarize_shared(cells, widths, steps, ncols, nys, h, command, limits, solver, blocks,
+                      out, want, manip) -> None:
+    """kernels.field.summarize_cells over every cell, ranges of cells on several threads
+    (threads.over_ranges), each with its own memo of meetings (finger_collision)."""
+    n_w = widths.size
+
+    def cells_in_range(first, last):
+        if blocks.finger_collision.on:
+            memo = np.empty((n_w, int(nys[first:last].max()), 2 * int(ncols[first:last].max()) + 1,
+                             5))
+        else:
+            memo = np.empty((0, 0, 0, 5))
+        field.summarize_cells(cells, first, last, widths, steps, ncols, nys, float(h),
+                              float(command.f_left), float(command.f_right),
+                              limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
+                              manip, memo, np.full(2, np.nan))
+
+    over_ranges(cells.shape[0], cells_in_range)
 
 
 def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
@@ -102,10 +130,20 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     if step is None:
         raise ModelInputError(f"w = {w} is not a whole number of grid steps 2h = {2 * h}")
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
-    _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
-    xs, ys, fingers, outs, force_arrays, summary = cell_map(
-        finger, solver, blocks, float(w), step, i1, j1 + 1, float(h), float(command.f_left),
-        float(command.f_right), True, forces)
+    _, ncol, _, j1 = grid_index_bounds(design, part, Grid(h=h))
+    ny = j1 + 1
+    steps = np.array([step], dtype=np.int64)
+    shared, m_lo, ys = field.shared_finger_field(finger, solver, blocks, steps,
+                                                 np.array([ncol], dtype=np.int64), ny, float(h))
+    xs, fingers = field.gather_fingers(shared, m_lo, step, ncol, ny, float(h))
+    outs = new_outcome_arrays(ny, xs.shape[0])
+    force_arrays = new_force_arrays(ny, xs.shape[0]) if forces else no_force_arrays()
+    summary = np.empty(len(SUMMARY_FIELDS))
+    field.map_from_fingers(xs, ys, finger, solver,
+                           Hand(float(w), float(command.f_left), float(command.f_right), float(h)),
+                           blocks, fingers, outs, force_arrays,
+                           np.empty(ny * xs.shape[0], dtype=np.int64), summary, field.EVERY_POINT,
+                           field.ALL_OUTPUTS, field.ALL_OUTPUTS, no_settled_fingers())
     return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
         summary_attrs(summary)
 
@@ -165,12 +203,10 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
             np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
             lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64),
             np.zeros(shape))
-        summarize_cells_shared(np.ascontiguousarray(cells[rows]), widths,
-                               np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
-                               command.f_left, command.f_right, limits.theta2_min,
-                               limits.theta2_max, solver, blocks, out,
-                               np.ones((rows.size, widths.size), dtype=np.bool_), manip,
-                               numba.get_num_threads())
+        _summarize_shared(np.ascontiguousarray(cells[rows]), widths,
+                          np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h, command,
+                          limits, solver, blocks, out,
+                          np.ones((rows.size, widths.size), dtype=np.bool_), manip)
         return out, manip
 
     out, manip = run(np.arange(n), capacity)

@@ -83,9 +83,10 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
                    effects: Effects, tension: float = 1.0
                    ) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
     """The kernels' parameter records of a map (one place: the map and the sweep paths).
-    An effect that is off is None in EffectBlocks (compiled out of the kernels; the blocks are
-    built by kernels/records.py's BLOCKS). `tension` is the tendon tension of the finger the
-    blocks are for (springs act per unit tension)."""
+    An effect that is off has its `off` block in EffectBlocks (its `on` False: the same
+    compiled kernels serve every scene; the blocks are built by kernels/records.py's BLOCKS).
+    `tension` is the tendon tension of the finger the blocks are for (springs act per unit
+    tension)."""
     mu_s = part.mu if effects.friction else 0.0
     finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
                          float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)

@@ -1,7 +1,8 @@
 """One energy map: design, part, command and grid in; labelled arrays out (MODEL 8).
 
 `compute_map` validates its inputs (the public edge), lays out the grid, solves both fingers at
-every grid point in parallel, then classifies points, follows trajectories and scores the map.
+every grid point (rows on several threads), then classifies points, follows trajectories and
+scores the map.
 What a map is (grid, kernel records, named fields) is `layout.py`, shared with the sweep.
 """
 from __future__ import annotations
@@ -10,14 +11,15 @@ import time
 
 import numpy as np
 
-from ..kernels.field import finger_field, map_from_fingers_parallel
-from ..kernels.records import (Hand, finger_blocks, new_finger_arrays, new_force_arrays,
-                               new_outcome_arrays)
+from ..kernels.field import EVERY_POINT, finger_rows, map_from_fingers
+from ..kernels.records import (LEFT, RIGHT, Hand, new_finger_arrays, new_force_arrays,
+                               new_outcome_arrays, no_force_arrays, no_settled_fingers)
 from ..grid import map_bytes_per_point
 from ..model import (Accuracy, Command, Design, Effects, Grid, Limits, Outputs, Part,
                      validate_inputs, validate_scene)
 from ..schema import SUMMARY_FIELDS
 from .layout import EnergyMap, finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .threads import over_ranges
 
 
 def compute_map(design: Design, part: Part, command: Command = Command(), grid: Grid = Grid(),
@@ -41,19 +43,24 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
 
     fingers = new_finger_arrays(2, ny, nx)
     dx_left, dx_right = finger_offsets(g.i, design.w, g.h)
-    for side, dxs, tension in ((0, dx_left, command.f_left), (1, dx_right, command.f_right)):
+    for side, dxs, tension in ((LEFT, dx_left, command.f_left),
+                               (RIGHT, dx_right, command.f_right)):
         _, _, side_blocks = kernel_records(design, part, limits, accuracy, effects, tension)
-        finger_field(dxs, g.y, finger, solver, finger_blocks(side_blocks), fingers, side)
+
+        def rows(first, last, dxs=dxs, side_blocks=side_blocks, side=side):
+            finger_rows(first, last, dxs, g.y, finger, solver, side_blocks, fingers, side)
+
+        over_ranges(ny, rows)
     solved = time.perf_counter()
 
     outs = new_outcome_arrays(ny, nx)
-    force_arrays = new_force_arrays(ny, nx) if forces else None
+    force_arrays = new_force_arrays(ny, nx) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
     hand = Hand(float(design.w), float(command.f_left), float(command.f_right), float(g.h))
-    map_from_fingers_parallel(g.x, g.y, finger, solver, hand, blocks, fingers, outs,
-                              force_arrays,
-                              np.empty(ny * nx if outputs.caging else 0, dtype=np.int64),
-                              summary, True, outputs.equilibrium, outputs.caging)
+    map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers, outs, force_arrays,
+                     np.empty(ny * nx if outputs.caging else 0, dtype=np.int64), summary,
+                     EVERY_POINT, bool(outputs.equilibrium), bool(outputs.caging),
+                     no_settled_fingers())
     finished = time.perf_counter()
 
     attrs = summary_attrs(summary, outputs, effects)
@@ -62,7 +69,8 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
                  seconds_total=finished - started)
     return EnergyMap(design=design, part=part, command=command, grid=grid, limits=limits,
                      accuracy=accuracy, effects=effects, x=g.x, y=g.y,
-                     fields=map_fields(fingers, outs, force_arrays, outputs), attrs=attrs,
+                     fields=map_fields(fingers, outs, force_arrays if forces else None, outputs),
+                     attrs=attrs,
                      outputs=tuple(outputs.names_on()))
 
 

@@ -39,10 +39,16 @@ def _cache_root() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "sweep"
 
 
+def cache_directory() -> Path:
+    """Where this kernel set (these sources) is cached."""
+    return _CACHE_DIRECTORY
+
+
+_CACHE_DIRECTORY = _cache_root() / f"kernels-{_kernel_source_digest()}"
 # Numba picks a function's cache location when it is decorated, so set the directory, decorate
 # every kernel (import the modules), then restore the setting for the user's own Numba code.
 _user_cache_dir = numba.config.CACHE_DIR
-numba.config.CACHE_DIR = str(_cache_root() / f"kernels-{_kernel_source_digest()}")
+numba.config.CACHE_DIR = str(_CACHE_DIRECTORY)
 try:
     from . import field, finger, hand, hull, records, streamline  # noqa: E402,F401
 finally:

@@ -5,36 +5,35 @@ trajectories, and many maps at once from shared finger fields. In the order of t
   The grid's outcome rows read the class and the energy from here, and the sliding trajectories
   evaluate the model off the grid with the same functions, so a point has one class and one
   energy whichever asks.
-- *Trajectories* (MODEL 8, `trajectories`): from every point of P_j downhill to where the part
-  stops, by one of three methods (`SolverSettings.trajectory`, model-notes D16): grid8, sliding
-  (the default; slides on the true energy where every grid neighbour is uphill) or continuous
-  (`streamline.py`).
+- *Trajectories* (MODEL 8, `trajectory_ends`): from every point of P_j downhill to where the
+  part stops, by one of three methods (`SolverSettings.trajectory`, model-notes D16): grid8,
+  sliding (the default; slides on the true energy where every grid neighbour is uphill) or
+  continuous (`streamline.py`).
 - *One map* (`map_from_fingers`): outcomes -> trajectories -> summary, from finger fields that
-  the caller fills (directly with `finger_field`, or by gathering a shared field). The sweep's
-  shared-field path and the plot go through it; `sweep.compute.maps.compute_map` through
-  `map_from_fingers_parallel`, the same steps with the outcome rows in `prange`. Row functions
-  do the work; `finger_field` and `outcome_rows_parallel` loop over rows with `prange` (one map,
-  all threads), `finger_field_serial` and `map_from_fingers` run inside the sweep's own
-  parallel loop over maps (Numba's default threading layer does not nest parallel regions).
-- *Many maps* (`summarize_cells_shared`): per-map summaries of cells (l1, l2, r1, r2, r, mu) x
-  palm widths. A finger's solution depends only on the part centre relative to its base, so
-  when every palm half-width is a whole number of grid steps, one right-finger field over
-  integer offsets serves both fingers of every width: the right finger at world column i reads
-  offset i - s, the left finger offset -i - s (model-notes D1). The offsets are the same
-  floating-point numbers the direct computation uses, so the maps are bitwise identical to
-  `compute_map`'s.
+  the caller fills (`finger_rows`, or by gathering a shared field). The sweep and
+  `sweep.compute.maps.compute_map` both go through it.
+- *Many maps* (`summarize_cells`): per-map summaries of cells (l1, l2, r1, r2, r, mu) x palm
+  widths. A finger's solution depends only on the part centre relative to its base, so when
+  every palm half-width is a whole number of grid steps, one right-finger field over integer
+  offsets serves both fingers of every width: the right finger at world column i reads offset
+  i - s, the left finger offset -i - s (model-notes D1). The offsets are the same floating-point
+  numbers the direct computation uses, so the maps are bitwise identical to `compute_map`'s.
+
+The drivers (`finger_rows`, `map_from_fingers`, `summarize_cells`) release the GIL and work on a
+range of rows or cells: the compute layer runs ranges on several threads
+(`sweep.compute.threads`). No `prange`: a parallel loop compiles its whole call tree twice
+more (docs/performance.md, cold compilation).
 
 One module, not four (P14): the import chain from the CLI to the model stays within ten modules
 (tests/test_layers.py); the sections above were the modules point, trajectory, field and
 cells.
 """
 import math
-import numba
 import numpy as np
 
-from numba import njit, prange
 from typing import NamedTuple
 
+from .jit import entry, inner
 from ..model import (
     EJECT,
     END_CAGED,
@@ -61,6 +60,7 @@ from .hand import (
     closing_path_angles,
     collide,
     collide_near,
+    no_slide_context,
     resolve_collisions,
     rests_on_other_finger,
     settled_fingers_cross,
@@ -89,16 +89,19 @@ from .hand import (
     touches_palm,
 )
 from .records import (
-    blocks_of,
-    finger_blocks,
     FingerModel,
     FingerState,
     Hand,
     JointSprings,
     new_finger_arrays,
-    new_force_arrays,
     new_outcome_arrays,
+    no_force_arrays,
+    no_settled_fingers,
+    LEFT,
+    RIGHT,
     SettledFingers,
+    wants_manipulation,
+    with_forces,
     with_joint_springs,
 )
 from .streamline import streamline_ends
@@ -113,7 +116,7 @@ from .streamline import streamline_ends
 # then the tip path (the tip on the disc, t1 following, t2 up to the final t2), progress
 # counting t2's travel there. Here, not in hand.py: it needs the finger's paths (finger.py),
 # and the kernels' import chain stays within its length (tests/test_layers.py).
-@njit(cache=True)
+@inner
 def own_path_end(path, theta2_min):
     t1, t2, on_tip, t1s, t2s, _, _ = path
     if not on_tip:
@@ -121,7 +124,7 @@ def own_path_end(path, theta2_min):
     return t1s + (t2s - theta2_min) + (t2 - t2s)
 
 
-@njit(cache=True)
+@inner
 def own_path_angles(progress, path, finger):
     """(t1, t2) of a finger at shared progress p along its own path (the final angles from
     its end on)."""
@@ -139,15 +142,15 @@ def own_path_angles(progress, path, finger):
     return min(max(a1, 0.0), math.pi), a2
 
 
-@njit(cache=True)
+@inner
 def own_paths_cross_at(progress, left, right, finger, w):
     a1l, a2l = own_path_angles(progress, left, finger)
     a1r, a2r = own_path_angles(progress, right, finger)
-    return fingers_cross(finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w),
-                         finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w))
+    return fingers_cross(finger_polyline(LEFT, a1l, a2l, finger.l1, finger.l2, w),
+                         finger_polyline(RIGHT, a1r, a2r, finger.l1, finger.l2, w))
 
 
-@njit(cache=True)
+@inner
 def own_paths_meeting(left, right, finger, w, collision):
     """hand.meeting_progress on the fingers' own paths: the first node (every
     collision.progress_step) where they cross, that step bisected to collision.tol; -1 if they
@@ -177,7 +180,7 @@ def own_paths_meeting(left, right, finger, w, collision):
     return -1.0
 
 
-@njit(cache=True)
+@inner
 def stopped_on_own_path(progress, state, path, k1_start, finger):
     """hand.stopped_finger on the finger's own path: (changed, mode, t1, t2, k1, k2). In its
     closing to where the tip path began, D14's rule (FREE, or PROXIMAL_ONLY with that closing's
@@ -197,13 +200,13 @@ def stopped_on_own_path(progress, state, path, k1_start, finger):
     return True, TIP_ONLY, a1, a2, 0.0, finger.l2
 
 
-@njit(cache=True)
+@entry
 def collide_on_own_paths(x, y, finger, solver, effects, hand, collision, left, right):
     """finger_collision at a part position where a finger took the tip path (D29): (changed,
     left, right), each (mode, t1, t2, k1, k2), both fingers stopped on their own paths at the
     first meeting, if their final configurations cross (D14)."""
     w = hand.w
-    if left[0] < 0 or right[0] < 0 or collision is None:
+    if left[0] < 0 or right[0] < 0 or not collision.on:
         return False, left, right
     if not settled_fingers_cross(left[1], left[2], right[1], right[2], finger, w):
         return False, left, right
@@ -223,33 +226,33 @@ def collide_on_own_paths(x, y, finger, solver, effects, hand, collision, left, r
     return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
 
 
-@njit(cache=True)
+@inner
 def tip_path_collisions(xs, ys, finger, solver, effects, hand, fingers, collision, tip):
     """The grid's points where a finger took the tip path, by collide_on_own_paths (in place):
     (points changed, handled), `handled` marking them for hand.resolve_collisions to leave
-    alone. Without tip_contact (tip None) no finger took it: nothing is handled."""
+    alone. Without tip_contact no finger took it: nothing is handled."""
     handled = np.zeros((fingers.mode.shape[1], fingers.mode.shape[2]), dtype=np.bool_)
     n_changed = 0
     for j in range(ys.shape[0]):
         for i in range(xs.shape[0]):
-            if not (took_tip_path(fingers.mode[0, j, i], tip)
-                    or took_tip_path(fingers.mode[1, j, i], tip)):
+            if not (took_tip_path(np.int64(fingers.mode[0, j, i]), tip)
+                    or took_tip_path(np.int64(fingers.mode[1, j, i]), tip)):
                 continue
             handled[j, i] = True
-            left = (fingers.mode[0, j, i], fingers.t1[0, j, i], fingers.t2[0, j, i],
+            left = (np.int64(fingers.mode[0, j, i]), fingers.t1[0, j, i], fingers.t2[0, j, i],
                     fingers.k1[0, j, i], fingers.k2[0, j, i])
-            right = (fingers.mode[1, j, i], fingers.t1[1, j, i], fingers.t2[1, j, i],
+            right = (np.int64(fingers.mode[1, j, i]), fingers.t1[1, j, i], fingers.t2[1, j, i],
                      fingers.k1[1, j, i], fingers.k2[1, j, i])
             changed, new_l, new_r = collide_on_own_paths(xs[i], ys[j], finger, solver, effects,
                                                          hand, collision, left, right)
             if changed:
                 n_changed += 1
-                set_finger(fingers, 0, j, i, new_l)
-                set_finger(fingers, 1, j, i, new_r)
+                set_finger(fingers, LEFT, j, i, new_l)
+                set_finger(fingers, RIGHT, j, i, new_r)
     return n_changed, handled
 
 
-@njit(cache=True)
+@inner
 def set_finger(fingers, side, j, i, state):
     fingers.mode[side, j, i] = state[0]
     fingers.t1[side, j, i] = state[1]
@@ -258,24 +261,26 @@ def set_finger(fingers, side, j, i, state):
     fingers.k2[side, j, i] = state[4]
 
 
-@njit(cache=True)
-def collisions_of_map(xs, ys, finger, solver, effects, hand, fingers, links, collision, tip):
+@inner
+def collisions_of_map(xs, ys, finger, solver, effects, hand, fingers, settled):
     """finger_collision on a map's solved fingers (in place): the points where a finger took
     the tip path on their own paths (D29), the rest by hand.resolve_collisions (D14). Returns
-    the number of points changed."""
-    if tip is None:  # (pruned: Numba prunes `is None` on a function's own arguments)
-        return resolve_collisions(ys, finger, hand.w, fingers, collision, links)
-    if collision is None:
+    the number of points changed. `settled`: records.SettledFingers."""
+    collision = effects.finger_collision
+    if not collision.on:
         return 0
+    if not effects.tip_contact.on:
+        return resolve_collisions(ys, finger, hand.w, fingers, collision, settled,
+                                  np.empty((0, 0), dtype=np.bool_))
     n_tip, handled = tip_path_collisions(xs, ys, finger, solver, effects, hand, fingers,
-                                         collision, tip)
-    return n_tip + resolve_collisions(ys, finger, hand.w, fingers, collision, links, handled)
+                                         collision, effects.tip_contact)
+    return n_tip + resolve_collisions(ys, finger, hand.w, fingers, collision, settled, handled)
 
 
 # ---------------------------------------------------------------------------------------------
 # One position
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@entry
 def classify_point(y, r, mode_l, mode_r):
     """MODEL 8 classes, first that applies."""
     if y < r - RANGE_TOL or mode_l == OVERLAP or mode_r == OVERLAP:
@@ -289,69 +294,65 @@ def classify_point(y, r, mode_l, mode_r):
     return REACHED
 
 
-@njit(cache=True)
+@inner
 def point_energy(a1l, a2l, a1r, a2r, finger, hand, springs):
     """The system energy V_left + V_right of a point (MODEL 6), springs included when on."""
     e = (finger_energy(a1l, a2l, finger.r1, finger.r2, hand.f_left, finger.theta2_min)
          + finger_energy(a1r, a2r, finger.r1, finger.r2, hand.f_right, finger.theta2_min))
-    if springs is not None:  # (adding 0.0 would turn a -0.0 energy into +0.0)
+    if springs.on:  # (adding 0.0 would turn a -0.0 energy into +0.0)
         e += (spring_energy(a1l, a2l, springs, finger.theta2_min)
               + spring_energy(a1r, a2r, springs, finger.theta2_min))
     return e
 
 
-@njit(cache=True)
+@entry
 def finger_effects(effects, tension):
     """A finger's effect blocks: the springs act per unit of that finger's tendon tension
     (records.JointSprings), as in `maps.compute_map`'s per-side blocks."""
-    return with_spring_tension(effects, effects.joint_springs, tension)
-
-
-@njit(cache=True)
-def with_spring_tension(effects, springs, tension):
-    # the block as an argument: Numba prunes `is None` only on a function's own arguments
-    if springs is None:
+    springs = effects.joint_springs
+    if not springs.on:
         return effects
-    return with_joint_springs(effects, JointSprings(springs.k1, springs.k2, tension))
+    return with_joint_springs(effects, JointSprings(True, springs.k1, springs.k2, tension))
 
 
-@njit(cache=True)
+@entry
 def point_outcome(x, y, finger, solver, effects, hand):
     """(class, energy) of the part centred at world (x, y): both fingers closed on it (finger
     frames d = (-x - w/2, y) and (x - w/2, y), MODEL 2), finger_collision when on; the energy
     is +inf where the point is INFEASIBLE (no energy there, and never lower than another)."""
-    c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, np.inf, None)
+    c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, np.inf,
+                                  no_slide_context())
     return c, e
 
 
-@njit(cache=True)
+@entry
 def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     """point_outcome for a search that only asks whether the energy is below `bound`:
     (class, energy, exact). Not exact (exact False) only with finger_collision, where the
     settled fingers' energy is already above `bound`: then that energy is returned, a lower
     bound of the true one (a finger stopped on the other has angles no larger than its
     settled ones, and the energy falls as either angle grows: MODEL 6 with tensions >= 0 and
-    no springs), and the meeting is not searched. `context`: collision.slide_context (the
-    meeting found as on the grid) or None (hand.collide)."""
+    no springs), and the meeting is not searched. `context`: hand.slide_context (the
+    meeting found as on the grid) or hand.no_slide_context() (hand.collide)."""
     w = hand.w
     sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
     sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
     collision = effects.finger_collision
-    if collision is not None and (took_tip_path(sl.mode, effects.tip_contact)
+    if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
         # on the fingers' own paths (D29); no lower bound: on the tip path t1 may grow
         _, left, right = collide_on_own_paths(
             x, y, finger, solver, effects, hand, collision,
             (sl.mode, sl.t1, sl.t2, sl.k1, sl.k2), (sr.mode, sr.t1, sr.t2, sr.k1, sr.k2))
         return outcome_of(y, left, right, finger, hand, effects.joint_springs)
-    if collision is not None and effects.joint_springs is None and hand.f_left >= 0.0 \
+    if collision.on and not effects.joint_springs.on and hand.f_left >= 0.0 \
             and hand.f_right >= 0.0:
         c = classify_point(y, finger.r, sl.mode, sr.mode)
         if c != INFEASIBLE:  # (the effect does not change an infeasible point)
-            e = point_energy(sl.t1, sl.t2, sr.t1, sr.t2, finger, hand, None)
+            e = point_energy(sl.t1, sl.t2, sr.t1, sr.t2, finger, hand, effects.joint_springs)
             if e > bound:
                 return c, e, False
-    if context is None:
+    if not context[0]:
         _, left, right = collide(finger, w, collision, sl.mode, sl.t1, sl.t2, sl.k1, sl.k2,
                                  sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
     else:
@@ -360,7 +361,7 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     return outcome_of(y, left, right, finger, hand, effects.joint_springs)
 
 
-@njit(cache=True)
+@inner
 def outcome_of(y, left, right, finger, hand, springs):
     """(class, energy, exact) of a position from its fingers, each (mode, t1, t2, k1, k2)."""
     c = classify_point(y, finger.r, left[0], right[0])
@@ -412,7 +413,7 @@ SLIDE_REL = 1e-12
 SLIDE_STEPS_PER_CELL = 64
 
 
-@njit(cache=True)
+@entry
 def max_slide_points(ny, nx):
     """Positions a slide can visit at most (the length of a `path` array that holds any)."""
     return SLIDE_STEPS_PER_CELL * (nx + ny) + 1
@@ -448,7 +449,7 @@ MEMO_MIN_CAPACITY = 4096  # entries (40 bytes each), allocated at a map's first 
 MEMO_MAX_CAPACITY = 1 << 18
 
 
-@njit(cache=True)
+@entry
 def new_memo(capacity, mirror):
     """An empty OutcomeMemo of `capacity` entries (a power of two)."""
     bits = np.empty(2)
@@ -457,7 +458,7 @@ def new_memo(capacity, mirror):
                        np.zeros(1, dtype=np.int64), mirror)
 
 
-@njit(cache=True)
+@entry
 def memo_for_slide(memo):
     """The memo to give the next slide: the same, or (before the first slide of the map, and
     once it is a quarter full, so that a slide finds room) a larger copy of it. Allocation
@@ -475,7 +476,7 @@ def memo_for_slide(memo):
     return bigger
 
 
-@njit(cache=True)
+@inner
 def memo_slot(memo, k0, k1):
     """The slot of key (k0, k1) in the memo, or of the free slot where it would go."""
     mask = memo.keys.shape[0] - 1
@@ -488,7 +489,7 @@ def memo_slot(memo, k0, k1):
     return s
 
 
-@njit(cache=True)
+@inner
 def memo_store(memo, k0, k1, c, e, exact):
     """Enter an outcome, or replace a lower bound by the exact one (no new entry where the
     memo is half full: it is then only read)."""
@@ -504,15 +505,15 @@ def memo_store(memo, k0, k1, c, e, exact):
     memo.values[s, 2] = exact
 
 
-@njit(cache=True)
+@entry
 def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
     """(class, energy) at world (x, y) for a search that only asks whether the energy is
     below `bound` (+inf: the exact outcome): field.point_outcome_below, read from the memo
     where it holds the position (or its mirror image, for a symmetric hand) well enough.
     The energy is exact, or a lower bound above `bound`; the search compares it with `bound`
-    only (`e < best`), so its decisions are those of the exact energies. `memo` None: always
-    evaluated; `context`: collision.slide_context or None."""
-    if memo is None:
+    only (`e < best`), so its decisions are those of the exact energies. A memo of no capacity
+    (`new_memo(0, ...)`): always evaluated; `context`: as point_outcome_below's."""
+    if memo.keys.shape[0] == 0:
         c, e, _ = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
         return c, e
     memo.bits[0] = abs(x) if memo.mirror else x
@@ -523,11 +524,11 @@ def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
     if memo.keys[s, 0] != EMPTY_KEY and (memo.values[s, 2] != 0.0 or memo.values[s, 1] > bound):
         return int(memo.values[s, 0]), memo.values[s, 1]
     c, e, exact = point_outcome_below(x, y, finger, solver, effects, hand, bound, context)
-    memo_store(memo, k0, k1, c, e, 1.0 if exact else 0.0)
+    memo_store(memo, k0, k1, float(c), e, 1.0 if exact else 0.0)
     return c, e
 
 
-@njit(cache=True)
+@entry
 def downhill_neighbour(energy, point_class, i, j, h):
     """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
     ny, nx = energy.shape
@@ -550,16 +551,16 @@ def downhill_neighbour(energy, point_class, i, j, h):
     return best
 
 
-@njit(cache=True)
-def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand,
-                     memo=None, context=None):
+@entry
+def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand, memo,
+                     context):
     """(energy, class, unit direction ux, uy) of the lowest point found on the circle of radius
     rho around world (x, y) (the search of the module's SLIDE_* constants; `thorough` for the
     stall decision). Ties go to the first evaluated: directions counter-clockwise from E, then
     each refinement's counter-clockwise side first. `scratch`: SLIDE_DIRECTIONS floats."""
     stride = 1 if thorough else SLIDE_STEP_STRIDE
     best = np.inf
-    best_class = INFEASIBLE
+    best_class = NO_CLASS
     ux = 0.0
     uy = 0.0
     for n in range(0, SLIDE_DIRECTIONS, stride):
@@ -579,16 +580,16 @@ def lowest_on_circle(x, y, rho, thorough, scratch, finger, solver, effects, hand
         if not (e <= scratch[n - 1] and e <= scratch[(n + 1) % SLIDE_DIRECTIONS]) \
                 or not math.isfinite(e):
             continue
-        e, c, vx, vy = refine_on_circle(x, y, rho, e, INFEASIBLE, SLIDE_DX[n], SLIDE_DY[n],
+        e, c, vx, vy = refine_on_circle(x, y, rho, e, NO_CLASS, SLIDE_DX[n], SLIDE_DY[n],
                                         half, finger, solver, effects, hand, memo, context)
         if e < best:
             best, best_class, ux, uy = e, c, vx, vy
     return best, best_class, ux, uy
 
 
-@njit(cache=True)
+@inner
 def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, effects, hand,
-                     memo=None, context=None):
+                     memo, context):
     """SLIDE_REFINE times: the directions `half` either side of (ux, uy) (counter-clockwise
     first), the lower replacing it; `half` halves each time."""
     for _ in range(SLIDE_REFINE):
@@ -607,7 +608,7 @@ def refine_on_circle(x, y, rho, best, best_class, ux, uy, half, finger, solver, 
     return best, best_class, ux, uy
 
 
-@njit(cache=True)
+@inner
 def nearest_grid_point(x, y, xs, ys, h):
     """Flat index of the grid point nearest to world (x, y), clipped into the grid."""
     nx = xs.shape[0]
@@ -616,16 +617,16 @@ def nearest_grid_point(x, y, xs, ys, h):
     return j * nx + i
 
 
-@njit(cache=True)
+@entry
 def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, solver, effects,
-                    hand, path, memo=None, context=None):
+                    hand, path, memo, context):
     """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
     energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
     points written to `path`): the grid point where the slide rejoins the grid (lower than the
-    start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`
-    is None, or an array (n, 2) that receives the world positions of the slide (pictures,
-    tests); `memo`: the map's OutcomeMemo, or None; `context`: the map's
-    collision.slide_context, or None."""
+    start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`:
+    an array (n, 2) that receives the world positions of the slide (pictures, tests; (0, 2):
+    not recorded); `memo`: the map's OutcomeMemo (of no capacity: none); `context`: the map's
+    hand.slide_context, or hand.no_slide_context()."""
     ny, nx = energy.shape
     h = hand.h
     e_start = energy[j0, i0]
@@ -634,10 +635,11 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     e_here = e_start
     stage = 0
     scratch = np.empty(SLIDE_DIRECTIONS)
-    n_path = record(path, 0, x, y)
+    n_path = record(path, np.int64(0), x, y)
     for _ in range(max_slide_points(ny, nx) - 1):
         rho = h * SLIDE_CASCADE_RADIUS[stage]
-        e, c, ux, uy = lowest_on_circle(x, y, rho, SLIDE_CASCADE_THOROUGH[stage], scratch,
+        e, c, ux, uy = lowest_on_circle(x, y, rho, np.bool_(SLIDE_CASCADE_THOROUGH[stage]),
+                                        scratch,
                                         finger, solver, effects, hand, memo, context)
         if not (e < e_here - SLIDE_REL * abs(e_here)):
             stage += 1
@@ -676,16 +678,16 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     return nearest_grid_point(x, y, xs, ys, h), SLIDE_STALLS, n_path
 
 
-@njit(cache=True)
+@inner
 def record(path, n, x, y):
-    """Write position n of a slide into `path` (None: not recorded); returns n + 1."""
-    if path is not None and n < path.shape[0]:
+    """Write position n of a slide into `path` (room for fewer: not recorded); returns n + 1."""
+    if n < path.shape[0]:
         path[n, 0] = x
         path[n, 1] = y
     return n + 1
 
 
-@njit(cache=True)
+@entry
 def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding):
     """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
     point of P_j (REACHED points): grid8, or with `sliding` the sliding method (module
@@ -704,7 +706,8 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
     for p in range(size):
         end_state.flat[p] = END_NONE
         end_index.flat[p] = -1
-    memo = new_memo(1, hand.f_left == hand.f_right)  # grown at the first slide
+    memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown at the first slide
+    no_path = np.empty((0, 2))
     context = slide_context(finger, hand.w, effects.finger_collision)
     for p0 in range(size):
         j0 = p0 // nx
@@ -740,7 +743,7 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                     break
                 memo = memo_for_slide(memo)
                 q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
-                                             finger, solver, effects, hand, None, memo,
+                                             finger, solver, effects, hand, no_path, memo,
                                              context)
                 if kind != SLIDE_REJOINS:
                     state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
@@ -755,16 +758,6 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
         if end_state.flat[p] == END_CAGED:
             score_sum += caging_score.flat[end_index.flat[p]]
     return score_sum
-
-
-@njit(cache=True)
-def trajectories(outs, xs, ys, finger, solver, effects, hand, stack):
-    """The map's trajectory method (SolverSettings.trajectory, a run-time choice per map)."""
-    if solver.trajectory == TRAJECTORY_GRID8:
-        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, False)
-    if solver.trajectory == TRAJECTORY_SLIDING:
-        return trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, True)
-    return streamline_ends(outs, hand.h, stack, solver.streamline_step)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -790,58 +783,41 @@ S_EJECT = SUMMARY_INDEX["n_eject"]
 S_CAGED_POINTS = SUMMARY_INDEX["n_caged_points"]
 S_COLLISION_CHANGED = SUMMARY_INDEX["n_collision_changed"]
 SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edges)
+# Constant arguments of kernel calls (NumPy scalars: records.LEFT): a map's per-point outputs
+# everywhere or only where the part is stable (summaries: `every_point`), its equilibrium and
+# caging outputs on, the only finger of a shared field, a part taken as contained.
+EVERY_POINT, STABLE_POINTS = np.bool_(True), np.bool_(False)
+ALL_OUTPUTS = np.bool_(True)
+SHARED = np.int64(0)
+CONTAINED = np.bool_(True)
+NO_CLASS = np.int64(INFEASIBLE)
 
 
 # ---------------------------------------------------------------------------------------------
 # Finger fields
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def finger_row(j, dxs, dy, finger, solver, effects, fingers, side):
-    """Solve one finger at every column offset dxs[i] of row j (part centre at (dxs[i], dy))
-    into fingers[side]."""
-    for i in range(dxs.shape[0]):
-        s = solve_finger(dxs[i], dy, finger, solver, effects)
-        fingers.mode[side, j, i] = s.mode
-        fingers.t1[side, j, i] = s.t1
-        fingers.t2[side, j, i] = s.t2
-        fingers.k1[side, j, i] = s.k1
-        fingers.k2[side, j, i] = s.k2
-        fingers.tip_overlap[side, j, i] = s.tip_overlap
-
-
-@njit(cache=True)
-def finger_field(dxs, dys, finger, solver, effects, fingers, side):
-    """One finger over the grid dys x dxs (finger-frame offsets), rows in parallel."""
-    finger_field_of_blocks(dxs, dys, finger, solver, fingers, side, *effects[:])
-
-
-@njit(cache=True, parallel=True)
-def finger_field_of_blocks(dxs, dys, finger, solver, fingers, side, b0=None, b1=None, b2=None,
-                           b3=None, b4=None, b5=None):
-    """finger_field's parallel loop. The blocks come as arguments (records.blocks_of): a prange
-    loop cannot capture a record of blocks, nor a record unpacked from one (parfor lowering
-    finds no definition of it, numba 0.68.1), but it can capture a record that is an argument."""
-    for j in prange(dys.shape[0]):
-        finger_row_of_blocks(j, dxs, dys[j], finger, solver, fingers, side, b0, b1, b2, b3, b4,
-                             b5)
-
-
-@njit(cache=True)
-def finger_row_of_blocks(j, dxs, dy, finger, solver, fingers, side, b0, b1, b2, b3, b4, b5):
-    finger_row(j, dxs, dy, finger, solver, blocks_of(b0, b1, b2, b3, b4, b5), fingers, side)
-
-
-@njit(cache=True)
-def finger_field_serial(dxs, dys, finger, solver, effects, fingers, side):
-    for j in range(dys.shape[0]):
-        finger_row(j, dxs, dys[j], finger, solver, effects, fingers, side)
+@entry(nogil=True)
+def finger_rows(first, last, dxs, dys, finger, solver, effects, fingers, side):
+    """Solve one finger at every column offset dxs[i] of rows first .. last - 1 of the grid
+    dys x dxs (finger-frame offsets: part centre at (dxs[i], dys[j])) into fingers[side].
+    Without the GIL: `sweep.compute.threads` runs blocks of rows on several threads."""
+    for j in range(first, last):
+        dy = dys[j]
+        for i in range(dxs.shape[0]):
+            s = solve_finger(dxs[i], dy, finger, solver, effects)
+            fingers.mode[side, j, i] = s.mode
+            fingers.t1[side, j, i] = s.t1
+            fingers.t2[side, j, i] = s.t2
+            fingers.k1[side, j, i] = s.k1
+            fingers.k2[side, j, i] = s.k2
+            fingers.tip_overlap[side, j, i] = s.tip_overlap
 
 
 # ---------------------------------------------------------------------------------------------
 # Per-point outcomes of a map
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def fill_infeasible(j, i, fingers, outs, forces):
+@inner
+def fill_infeasible(j, i, fingers, outs, forces, forces_on):
     """Fill values where the point does not exist (model-notes D6)."""
     outs.energy[j, i] = np.nan
     outs.l_open[j, i] = np.nan
@@ -852,18 +828,18 @@ def fill_infeasible(j, i, fingers, outs, forces):
         fingers.k1[side, j, i] = np.nan
         fingers.k2[side, j, i] = np.nan
         fingers.tip_overlap[side, j, i] = False
-        if forces is not None:
+        if forces_on:
             forces.proximal_normal[side, j, i] = np.nan
             forces.distal_normal[side, j, i] = np.nan
             forces.distal_multiplier[side, j, i] = np.nan
             forces.resultant_x[side, j, i] = np.nan
             forces.resultant_y[side, j, i] = np.nan
             forces.determined[side, j, i] = False
-    if forces is not None:
+    if forces_on:
         forces.geometric_cage_score[j, i] = np.nan
 
 
-@njit(cache=True)
+@inner
 def point_forces(j, i, finger, fingers, forces):
     """Contact forces of both fingers at a feasible point (per unit tension, world frame).
     Where finger_collision stopped a finger on the other, neither finger's forces are
@@ -880,7 +856,7 @@ def point_forces(j, i, finger, fingers, forces):
         forces.determined[side, j, i] = st.determined and not touching
 
 
-@njit(cache=True)
+@inner
 def fingers_touch(fingers, j, i, finger):
     """finger_collision stopped one of the point's fingers on the other (model-notes D17)."""
     return (rests_on_other_finger(fingers.mode[0, j, i], fingers.t1[0, j, i],
@@ -889,7 +865,7 @@ def fingers_touch(fingers, j, i, finger):
                                      fingers.t2[1, j, i], finger))
 
 
-@njit(cache=True)
+@inner
 def finger_statics_at(fingers, side, j, i, finger):
     return finger_statics(FingerState(fingers.mode[side, j, i], fingers.t1[side, j, i],
                                       fingers.t2[side, j, i], fingers.k1[side, j, i],
@@ -897,11 +873,11 @@ def finger_statics_at(fingers, side, j, i, finger):
                           finger)
 
 
-@njit(cache=True)
+@inner
 def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scratch,
                 every_point, equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
-    `forces` is not None) along row j.
+    `forces` has room for them: records.with_forces) along row j.
 
     `equilibrium` False skips the part-equilibrium test and `caging` False the cage geometry
     (containment, L_open, crossing) at every point: those fields are left False / NaN / 0.
@@ -918,10 +894,11 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     point_class, energy, l_open = outs.point_class, outs.energy, outs.l_open
     equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed
     caged, caging_score = outs.caged, outs.caging_score
+    forces_on = with_forces(forces)
     for i in range(xs.shape[0]):
         x = xs[i]
-        ml = mode[0, j, i]
-        mr = mode[1, j, i]
+        ml = np.int64(mode[0, j, i])
+        mr = np.int64(mode[1, j, i])
         c = classify_point(y, r, ml, mr)
         point_class[j, i] = c
         equilibrium_out[j, i] = False
@@ -930,9 +907,9 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         caged[j, i] = False
         caging_score[j, i] = 0.0
         if c == INFEASIBLE:
-            fill_infeasible(j, i, fingers, outs, forces)
+            fill_infeasible(j, i, fingers, outs, forces, forces_on)
             continue
-        if forces is not None:
+        if forces_on:
             point_forces(j, i, finger, fingers, forces)
         a1l = t1[0, j, i]
         a2l = t2[0, j, i]
@@ -946,8 +923,8 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
             equilibrium_out[j, i] = eq
         l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
-        wants_geometry = caging and (eq or every_point or (forces is not None and c == REACHED))
-        if forces is not None:
+        wants_geometry = caging and (eq or every_point or (forces_on and c == REACHED))
+        if forces_on:
             forces.geometric_cage_score[j, i] = 0.0
         if not wants_geometry:
             continue
@@ -956,14 +933,14 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         l_open[j, i] = opening
         crossed[j, i] = intersect
         score = cage_score(inside, opening, r)
-        if forces is not None and c == REACHED:
+        if forces_on and c == REACHED:
             forces.geometric_cage_score[j, i] = score
         if eq and score > 0.0:
             caged[j, i] = True
             caging_score[j, i] = score
 
 
-@njit(cache=True)
+@inner
 def cage_score(inside, opening, r):
     """S = 1 - L_open / (2r) where the part is contained and L_open < 2r, else 0 (MODEL 8; an
     exact tie L_open == 2r is not caged, model-notes D5). Stability is the caller's business:
@@ -973,11 +950,11 @@ def cage_score(inside, opening, r):
     return 0.0
 
 
-@njit(cache=True)
+@inner
 def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
     """(contained, fingers cross, L_open) of the part at (x, y) between the fingers (MODEL 8)."""
-    left = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, hand.w)
-    right = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, hand.w)
+    left = finger_polyline(LEFT, a1l, a2l, finger.l1, finger.l2, hand.w)
+    right = finger_polyline(RIGHT, a1r, a2r, finger.l1, finger.l2, hand.w)
     inside = part_contained(x, y, left, right)
     intersect = fingers_cross(left, right)
     opening = 0.0 if intersect else tip_clearance(left, right)  # = mouth_opening
@@ -988,7 +965,7 @@ def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
 # Trajectories (MODEL 8): discrete steepest descent, each downhill step computed once
 # ---------------------------------------------------------------------------------------------
 # Neighbour order E, NE, N, NW, W, SW, S, SE (ties go to the first); j grows with y (north).
-@njit(cache=True)
+@inner
 def count_summary(outs, tip_overlap, score_sum, h, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY."""
     point_class = outs.point_class
@@ -1037,65 +1014,34 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
 # ---------------------------------------------------------------------------------------------
 # The map pipeline
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@entry(nogil=True)
 def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, forces, stack,
-                     summary, every_point, equilibrium=True, caging=True, links=None):
-    """From solved finger fields to a scored map: outcomes (and forces) -> trajectories ->
-    summary row. Serial (the sweep calls it inside its own parallel loop over maps);
-    `map_from_fingers_parallel` is the same pipeline with the outcome rows in parallel.
+                     summary, every_point, equilibrium, caging, settled):
+    """From solved finger fields to a scored map: finger_collision, outcomes (and forces),
+    trajectories (the method of SolverSettings.trajectory), summary row. The sweep and
+    `sweep.compute.maps.compute_map` both come here.
 
     Only the outputs asked for are computed (MODEL 9): `equilibrium` False skips the part
     equilibrium test, `caging` False the cage geometry and the trajectories (end states none,
     Lambda NaN). Plain run-time flags: they are loop-invariant, and the work they skip is per
-    point, so a branch costs nothing measurable (docs/effects.md). `links`: the settled
-    fingers' link vectors for finger_collision (the sweep's, `hand.resolve_collisions`)."""
+    point, so a branch costs nothing measurable (docs/effects.md). `settled`: what the sweep
+    knows of the settled fingers for finger_collision (records.SettledFingers). `forces`: the
+    ForceArrays to fill, or empty ones (records.with_forces)."""
     n_collision_changed = collisions_of_map(xs, ys, finger, solver, effects, hand, fingers,
-                                            links, effects.finger_collision,
-                                            effects.tip_contact)
+                                            settled)
     scratch = np.empty(SCRATCH_ANGLES)
     for j in range(ys.shape[0]):
         outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
-                    fingers, outs, forces,
-                    scratch, every_point, equilibrium, caging)
-    map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
-                       caging, n_collision_changed)
-
-
-@njit(cache=True)
-def map_from_fingers_parallel(xs, ys, finger, solver, hand, effects, fingers, outs, forces,
-                              stack, summary, every_point, equilibrium=True, caging=True):
-    """map_from_fingers with the outcome rows in parallel (one map, all threads: compute_map).
-    Rows are independent, so the results are those of the serial pipeline, bit for bit."""
-    n_collision_changed = collisions_of_map(xs, ys, finger, solver, effects, hand, fingers,
-                                            None, effects.finger_collision,
-                                            effects.tip_contact)
-    outcome_rows_parallel(xs, ys, finger, hand, effects.joint_springs, effects.tip_contact,
-                          fingers, outs, forces, every_point, equilibrium, caging)
-    map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
-                       caging, n_collision_changed)
-
-
-@njit(cache=True, parallel=True)
-def outcome_rows_parallel(xs, ys, finger, hand, springs, tip, fingers, outs, forces,
-                          every_point, equilibrium, caging):
-    """The outcome rows of one map, in parallel (records and blocks as arguments: see
-    finger_field_of_blocks)."""
-    for j in prange(ys.shape[0]):
-        scratch = np.empty(SCRATCH_ANGLES)  # per row: each thread its own
-        outcome_row(j, xs, ys[j], finger, hand, springs, tip, fingers, outs, forces, scratch,
-                    every_point, equilibrium, caging)
-
-
-@njit(cache=True)
-def map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, stack, summary,
-                       caging, n_collision_changed):
-    """Trajectories and the summary row of a map whose outcomes are filled."""
-    if caging:
-        score_sum = trajectories(outs, xs, ys, finger, solver, effects, hand, stack)
-    else:
+                    fingers, outs, forces, scratch, every_point, equilibrium, caging)
+    if not caging:
         outs.end_state[:, :] = END_NONE
         outs.end_index[:, :] = -1
         score_sum = np.nan  # no trajectories: Lambda does not exist
+    elif solver.trajectory == TRAJECTORY_GRID8 or solver.trajectory == TRAJECTORY_SLIDING:
+        score_sum = trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack,
+                                    solver.trajectory == TRAJECTORY_SLIDING)
+    else:
+        score_sum = streamline_ends(outs, hand.h, stack, solver.streamline_step)
     count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
     summary[S_COLLISION_CHANGED] = n_collision_changed
 
@@ -1103,7 +1049,7 @@ def map_after_outcomes(xs, ys, finger, solver, hand, effects, fingers, outs, sta
 # ---------------------------------------------------------------------------------------------
 # Many maps
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def shared_field_extent(steps, ncols):
     """(m_lo, number of offsets) of the shared field that serves every width of a cell."""
     m_lo = 0
@@ -1114,7 +1060,7 @@ def shared_field_extent(steps, ncols):
     return m_lo, m_hi - m_lo + 1
 
 
-@njit(cache=True)
+@entry
 def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
     """The right finger's field over every offset any width of the cell needs."""
     m_lo, nm = shared_field_extent(steps, ncols)
@@ -1124,12 +1070,12 @@ def shared_finger_field(finger, solver, effects, steps, ncols, ny, h):
     ys = np.empty(ny)
     for j in range(ny):
         ys[j] = finger.r + j * h
-    shared = new_finger_arrays(1, ny, nm)
-    finger_field_serial(dxs, ys, finger, solver, finger_blocks(effects), shared, 0)
+    shared = new_finger_arrays(np.int64(1), ny, nm)
+    finger_rows(np.int64(0), ny, dxs, ys, finger, solver, effects, shared, SHARED)
     return shared, m_lo, ys
 
 
-@njit(cache=True)
+@entry
 def gather_fingers(shared, m_lo, step, ncol, ny, h):
     """Both fingers of the map of palm half-width `step` grid steps, from the shared field:
     (world xs, FingerArrays on (2, ny, 2 ncol + 1)). Copied row by row, one finger's field at a
@@ -1139,7 +1085,7 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
     xs = np.empty(nx)
     for c in range(nx):
         xs[c] = (c - ncol) * h
-    fingers = new_finger_arrays(2, ny, nx)
+    fingers = new_finger_arrays(np.int64(2), ny, nx)
     for side in range(2):
         for j in range(ny):
             gather_row(shared.mode[0, j], fingers.mode[side, j], side, m_lo, step, ncol)
@@ -1152,7 +1098,7 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
     return xs, fingers
 
 
-@njit(cache=True)
+@inner
 def gather_row(src, dst, side, m_lo, step, ncol):
     """One row of one finger field: world column c (i = c - ncol) of the right finger reads
     offset i - step (a shift), of the left finger offset -i - step (a mirror)."""
@@ -1166,67 +1112,7 @@ def gather_row(src, dst, side, m_lo, step, ncol):
             dst[c] = src[base - c]
 
 
-@njit(cache=True)
-def summarize_cell(finger, solver, effects, ws, steps, ncols, ny, h, f_left, f_right, out, want,
-                   manip, c, memo, memo_key, memo_next):
-    """All widths of one cell from one shared finger field. out: (n_w, N_SUMMARY); `want`
-    (n_w,): the widths whose maps are computed (out[k] of another stays as it was: the
-    refinement asks for a few widths of a cell, and a width's map costs far more than its share
-    of the field).
-
-    steps[k] is the palm half-width of width k in grid steps; the map of width k has columns
-    i = -ncols[k] .. ncols[k] and rows y_j = r + j h, j = 0 .. ny - 1. With `manip` (a
-    ManipulationOut, None when off) the contact forces are computed too and row c of `manip`
-    receives the cell's manipulation metric data (MODEL 10). With finger_collision, `memo`
-    (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it) are this thread's memo
-    of meetings (records.SettledFingers), filled when `memo_next` (the next cell has the same
-    links), cleared when the links change.
-    """
-    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
-    if manip is not None:
-        ncol_max = 0
-        for k in range(ws.shape[0]):
-            ncol_max = max(ncol_max, ncols[k])
-        slots = ws.shape[0] * manip.a_commands.shape[0]
-        a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
-        a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
-        a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
-        manip.n_entries[c] = 0
-        links, statics = shared_finger_links_and_statics(shared, finger)
-    elif effects.finger_collision is not None:
-        links = shared_finger_links(shared, finger)
-    memo_read = False
-    if effects.finger_collision is not None:
-        memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
-        if memo_next and not memo_read:
-            memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
-            memo_key[0] = finger.l1
-            memo_key[1] = finger.l2
-    for k in range(ws.shape[0]):
-        if not want[k]:
-            continue
-        xs, fingers = gather_fingers(shared, m_lo, steps[k], ncols[k], ny, h)
-        outs = new_outcome_arrays(ny, xs.shape[0])
-        stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-        hand = Hand(ws[k], f_left, f_right, h)
-        if effects.finger_collision is None:
-            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
-                             out[k], False)  # summaries only
-        else:  # the settled fingers' links, as gather_fingers reads the shared field
-            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack,
-                             out[k], False, True, True,
-                             SettledFingers(links, ncols[k] - steps[k] - m_lo, -1,
-                                            -ncols[k] - steps[k] - m_lo, 1, memo[k],
-                                            memo_read, memo_next))
-        if manip is not None:
-            collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
-                                   steps[k], ncols[k], ncol_max, k, manip, c, a_count, a_fx,
-                                   a_fy)
-    if manip is not None:
-        manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
-
-
-@njit(cache=True)
+@inner
 def shared_finger_links(shared, finger):
     """Per point of a cell's shared finger field, the link vectors l1 (cos t1, sin t1) and
     l2 (cos phi, sin phi) in the finger's frame: (4, y, offset)."""
@@ -1244,7 +1130,7 @@ def shared_finger_links(shared, finger):
     return links
 
 
-@njit(cache=True)
+@inner
 def shared_finger_links_and_statics(shared, finger):
     """Per point of a cell's shared finger field, what every width's map reads from it for the
     manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
@@ -1254,14 +1140,14 @@ def shared_finger_links_and_statics(shared, finger):
     statics = np.empty((3, ny, nm))
     for j in range(ny):
         for m in range(nm):
-            st = finger_statics_at(shared, 0, j, m, finger)
+            st = finger_statics_at(shared, SHARED, j, m, finger)
             statics[0, j, m] = 1.0 if st.determined else 0.0
             statics[1, j, m] = st.resultant_x
             statics[2, j, m] = st.resultant_y
     return links, statics
 
 
-@njit(cache=True)
+@inner
 def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
                            ncol_max, k, manip, c, a_count, a_fx, a_fy):
     """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
@@ -1287,14 +1173,15 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
             # cheapest first: statics (precomputed), containment, then the opening
             if statics[0, j, src_l] == 0.0 or statics[0, j, src_r] == 0.0:
                 continue
-            left = polyline_from_links(0, hand.w, links[0, j, src_l], links[1, j, src_l],
+            left = polyline_from_links(LEFT, hand.w, links[0, j, src_l], links[1, j, src_l],
                                        links[2, j, src_l], links[3, j, src_l])
-            right = polyline_from_links(1, hand.w, links[0, j, src_r], links[1, j, src_r],
+            right = polyline_from_links(RIGHT, hand.w, links[0, j, src_r], links[1, j, src_r],
                                         links[2, j, src_r], links[3, j, src_r])
             if not part_contained(x, y, left, right):
                 continue
             crossed = fingers_cross(left, right)
-            s_geo = cage_score(True, 0.0 if crossed else tip_clearance(left, right), finger.r)
+            s_geo = cage_score(CONTAINED, 0.0 if crossed else tip_clearance(left, right),
+                               finger.r)
             if s_geo <= 0.0:
                 continue
             lx = -statics[1, j, src_l]         # the left finger's frame is mirrored in x
@@ -1317,7 +1204,7 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
                 a_count[j, a] = n + 1
 
 
-@njit(cache=True)
+@entry
 def pose_radius_sum(count, fx, fy, pose_value, c):
     """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
     each pose's value also into pose_value[c] when that array has rows."""
@@ -1336,79 +1223,81 @@ def pose_radius_sum(count, fx, fy, pose_value, c):
     return total
 
 
-@njit(cache=True)
+@inner
 def cell_finger_model(cells, c, theta2_min, theta2_max):
     return FingerModel(cells[c, 0], cells[c, 1], cells[c, 2], cells[c, 3], cells[c, 4],
                        cells[c, 5], theta2_min, theta2_max)
 
 
-@njit(cache=True)
-def summarize_cells_shared(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                           theta2_max, solver, effects, out, want, manip, n_threads):
-    """summarize_cell for every cell, cells in parallel. cells: (n, 6) l1 l2 r1 r2 r mu;
-    want: bool (n, n_w), the maps to compute; manip: a ManipulationOut with one row per cell,
-    or None; n_threads: Numba's thread count (numba.get_num_threads(), which a cached kernel
-    cannot call)."""
-    memo_shape = (0, 0, 0, 0, 5)  # finger_collision: each thread's memo of meetings
-    if effects.finger_collision is not None and cells.shape[0] > 0:
-        memo_shape = (n_threads, ws.shape[0], nys.max(), 2 * ncols.max() + 1, 5)
-    memo = np.empty(memo_shape)
-    memo_key = np.full((memo_shape[0], 2), np.nan)
-    # prange captures blocks only as arguments (records.blocks_of)
-    summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, out, want, manip, memo, memo_key,
-                              *effects[:])
+@entry(nogil=True)
+def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
+                    theta2_max, solver, effects, out, want, manip, memo, memo_key):
+    """The maps of cells first .. last - 1 at every width, each cell's from one shared finger
+    field, in order on the calling thread, without the GIL (`sweep.compute.threads` runs
+    ranges of cells on several threads). One function, not one per cell: each level of the
+    call tree above the model compiles the whole tree below it again (docs/performance.md).
 
-
-@njit(cache=True, parallel=True)
-def summarize_cells_of_blocks(cells, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                              theta2_max, solver, out, want, manip, memo, memo_key, b0=None,
-                              b1=None, b2=None, b3=None, b4=None, b5=None):
-    for c in prange(cells.shape[0]):
-        t = numba.get_thread_id() if memo.shape[0] > 0 else 0
-        memo_next = (c + 1 < cells.shape[0] and cells[c + 1, 0] == cells[c, 0]
+    cells: (n, 6) l1 l2 r1 r2 r mu; out: (n, n_w, N_SUMMARY); want: bool (n, n_w), the maps to
+    compute (out[c, k] of another stays as it was: the refinement asks for a few widths of a
+    cell, and a width's map costs far more than its share of the field). steps[k] is the palm
+    half-width of width k in grid steps; the map of cell c at width k has columns
+    i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h, j = 0 .. nys[c] - 1. With `manip`
+    (a ManipulationOut with a row per cell; without: records.no_manipulation()) the contact
+    forces are computed too and row c of `manip` receives the cell's manipulation metric data
+    (MODEL 10). With finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell
+    that filled it) are this call's memo of meetings (records.SettledFingers), filled while the
+    next cell has the same links, cleared when the links change (empty arrays without it)."""
+    manipulation = wants_manipulation(manip)
+    collision = effects.finger_collision.on
+    no_forces = no_force_arrays()
+    for c in range(first, last):
+        finger = cell_finger_model(cells, c, theta2_min, theta2_max)
+        ny = nys[c]
+        cell_ncols = ncols[c]
+        memo_next = (c + 1 < last and cells[c + 1, 0] == cells[c, 0]
                      and cells[c + 1, 1] == cells[c, 1])
-        summarize_cell(cell_finger_model(cells, c, theta2_min, theta2_max), solver,
-                       blocks_of(b0, b1, b2, b3, b4, b5), ws, steps, ncols[c],
-                       nys[c], h, f_left, f_right, out[c], want[c], manip, c,
-                       memo[t] if memo.shape[0] > 0 else memo[:0].reshape((0, 0, 0, 5)),
-                       memo_key[t] if memo.shape[0] > 0 else memo_key[:0].reshape(0),
-                       memo_next)
-
-
-@njit(cache=True)
-def cell_map(finger, solver, effects, w, step, ncol, ny, h, f_left, f_right, every_point,
-             with_forces):
-    """The full map of one width of a cell through the shared-field path (per-point outputs of
-    the sweep path): (xs, ys, fingers, outcomes, forces, summary row); the force arrays are
-    empty unless with_forces."""
-    steps = np.array([step])
-    ncols = np.array([ncol])
-    shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, ncols, ny, h)
-    xs, fingers = gather_fingers(shared, m_lo, step, ncol, ny, h)
-    outs = new_outcome_arrays(ny, xs.shape[0])
-    stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-    summary = np.empty(N_SUMMARY)
-    if with_forces:
-        forces = new_force_arrays(ny, xs.shape[0])
-        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
-                         outs, forces, stack, summary, every_point)
-    else:
-        forces = new_force_arrays(0, 0)  # same return type either way
-        map_from_fingers(xs, ys, finger, solver, Hand(w, f_left, f_right, h), effects, fingers,
-                         outs, None, stack, summary, every_point)
-    return xs, ys, fingers, outs, forces, summary
-
-
-@njit(cache=True)
-def summarize_direct_map(finger, solver, effects, hand, dx_left, dx_right, xs, ys, out):
-    """One map with each finger solved at its own offsets (palm half-width off the grid)."""
-    ny = ys.shape[0]
-    nx = xs.shape[0]
-    fingers = new_finger_arrays(2, ny, nx)
-    finger_field_serial(dx_left, ys, finger, solver, finger_blocks(effects), fingers, 0)
-    finger_field_serial(dx_right, ys, finger, solver, finger_blocks(effects), fingers, 1)
-    outs = new_outcome_arrays(ny, nx)
-    stack = np.empty(ny * nx, dtype=np.int64)
-    map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, None, stack, out,
-                     False)
+        shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, cell_ncols, ny, h)
+        ncol_max = np.int64(0)
+        a_count = np.zeros((0, 0), dtype=np.int64)
+        a_fx = np.empty((0, 0, 0))
+        a_fy = np.empty((0, 0, 0))
+        links = np.empty((4, 0, 0))
+        statics = np.empty((3, 0, 0))
+        if manipulation:
+            for k in range(ws.shape[0]):
+                ncol_max = max(ncol_max, cell_ncols[k])
+            slots = ws.shape[0] * manip.a_commands.shape[0]
+            a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+            a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+            a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+            manip.n_entries[c] = 0
+            links, statics = shared_finger_links_and_statics(shared, finger)
+        elif collision:
+            links = shared_finger_links(shared, finger)
+        memo_read = False
+        if collision:
+            memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
+            if memo_next and not memo_read:
+                memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+                memo_key[0] = finger.l1
+                memo_key[1] = finger.l2
+        for k in range(ws.shape[0]):
+            if not want[c, k]:
+                continue
+            xs, fingers = gather_fingers(shared, m_lo, steps[k], cell_ncols[k], ny, h)
+            outs = new_outcome_arrays(ny, xs.shape[0])
+            stack = np.empty(ny * xs.shape[0], dtype=np.int64)
+            hand = Hand(ws[k], f_left, f_right, h)
+            settled = no_settled_fingers()
+            if collision:  # the settled fingers' links, as gather_fingers reads the shared field
+                settled = SettledFingers(True, links, cell_ncols[k] - steps[k] - m_lo, -1,
+                                         -cell_ncols[k] - steps[k] - m_lo, 1, memo[k],
+                                         memo_read, memo_next)
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, no_forces,
+                             stack, out[c, k], STABLE_POINTS, ALL_OUTPUTS, ALL_OUTPUTS, settled)
+            if manipulation:
+                collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
+                                       steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
+                                       a_fx, a_fy)
+        if manipulation:
+            manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)

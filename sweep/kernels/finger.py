@@ -20,7 +20,7 @@ cannot hold, and the closing sequence that settles it. One module, four parts in
    - The *tip path* (tip_contact, D15): the tip stays on the part; at each t1 the distal closes
      about B until the tip meets the disc. Events: stick (gtip >= 0), distal stop, proximal stop,
      lost (the tip no longer meets the disc, or the tendon pulls it off).
-   `tip` is None for the edge path (compiled out) and the TipContact block for the tip path.
+   `on_tip_path` says which: False for the edge path, True for the tip path.
 4. The finger: which configuration it reaches and what it exerts (MODEL 4, 5, 6), in two steps:
    `closing_contact` depends on geometry only (l1, l2, r, joint limits); `settle` adds the
    stick-slip decisions and the paths, which depend on the pulley radii and friction.
@@ -34,8 +34,9 @@ raises.
 """
 import math
 
-from numba import njit
+import numpy as np
 
+from .jit import entry, inner
 from ..model import (
     DISTAL_ONLY,
     FREE,
@@ -48,7 +49,7 @@ from ..model import (
     TWO_PHALANX,
     VERTEX,
 )
-from .records import FingerState, FingerStatics
+from .records import FingerState, FingerStatics, JointSprings
 
 
 # =================================================================================================
@@ -59,7 +60,7 @@ NO_ANGLE = math.inf
 EPS = 2.0 ** -52  # float64 machine epsilon (the round-off of tangencies, tangency_slack)
 
 
-@njit(cache=True)
+@inner
 def wrap_angle(a):
     """Wrap into (-pi, pi]."""
     if -math.pi < a <= math.pi:
@@ -67,7 +68,7 @@ def wrap_angle(a):
     return a - 2.0 * math.pi * math.ceil((a - math.pi) / (2.0 * math.pi))
 
 
-@njit(cache=True)
+@inner
 def tangent_length(dist2, r):
     """Length of the tangent from a point at squared distance dist2 to a disc of radius r.
 
@@ -80,18 +81,18 @@ def tangent_length(dist2, r):
     return math.sqrt(max(dist2 - r2, 0.0))
 
 
-@njit(cache=True)
+@inner
 def in_range(value, lower, upper):
     """Inclusive range check with the MODEL 5.5 slack."""
     return lower - RANGE_TOL <= value <= upper + RANGE_TOL
 
 
-@njit(cache=True)
+@inner
 def clamp(value, lower, upper):
     return min(max(value, lower), upper)
 
 
-@njit(cache=True)
+@inner
 def tangency_slack(k, dist2, r):
     """How far round-off can move the angle atan2(r, k) of a tangency (MODEL 5.5), plus
     RANGE_TOL. k = sqrt(dist2 - r^2) carries an absolute error of about eps dist2 / k (sqrt of
@@ -103,7 +104,7 @@ def tangency_slack(k, dist2, r):
     return RANGE_TOL + dk * r / (r * r + k * k)
 
 
-@njit(cache=True)
+@inner
 def proximal_tangency(dx, dy, r):
     """MODEL 3.1: (t1, k1) of the proximal link tangent to the part; k1 < 0 if d is inside the
     disc."""
@@ -113,7 +114,7 @@ def proximal_tangency(dx, dy, r):
     return math.atan2(dy, dx) - math.atan2(r, k1), k1
 
 
-@njit(cache=True)
+@entry
 def distal_tangency(dx, dy, t1, l1, r):
     """MODEL 3.2: (t2, k2) of the distal link tangent to the part, proximal fixed at t1.
 
@@ -127,7 +128,7 @@ def distal_tangency(dx, dy, t1, l1, r):
     return t2, k2
 
 
-@njit(cache=True)
+@inner
 def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
     """MODEL 3.3: (t1, k2) of the distal link (held at theta2_min) tangent during the rigid sweep.
 
@@ -145,7 +146,7 @@ def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
     return phi - theta2_min, k2
 
 
-@njit(cache=True)
+@entry
 def vertex_entry(dx, dy, rho, delta, r):
     """MODEL 4: turning angle at which a vertex at radius rho, polar offset delta, enters the disc.
 
@@ -158,7 +159,7 @@ def vertex_entry(dx, dy, rho, delta, r):
     return math.atan2(dy, dx) - math.acos(c) - delta
 
 
-@njit(cache=True)
+@inner
 def entry_cosine(dx, dy, rho, r):
     """MODEL 4's acos argument (rho^2 + |d|^2 - r^2) / (2 rho |d|) for a vertex at radius rho
     about the origin of (dx, dy); 2 (no entry) where it is undefined."""
@@ -173,29 +174,31 @@ def entry_cosine(dx, dy, rho, r):
 # =================================================================================================
 
 # What the rest of the finger can add to a joint's balance (the residual tau_i - contact_i):
-BALANCE_EXACT = 0      # nothing: the contact alone balances the joint
-BALANCE_POSITIVE = 1   # >= 0: a proximal edge contact, the proximal or distal upper stop
-BALANCE_NEGATIVE = -1  # <= 0: the proximal or distal lower stop
-BALANCE_FREE = 2       # either sign (stops or contacts of both signs)
+# (NumPy integers: a kernel passing a Python int constant compiles its callee once per value,
+# kernels/__init__.py.)
+BALANCE_EXACT = np.int64(0)      # nothing: the contact alone balances the joint
+BALANCE_POSITIVE = np.int64(1)   # >= 0: a proximal edge contact, the proximal or distal upper stop
+BALANCE_NEGATIVE = np.int64(-1)  # <= 0: the proximal or distal lower stop
+BALANCE_FREE = np.int64(2)       # either sign (stops or contacts of both signs)
 
 
 # ---------------------------------------------------------------------------------------------
 # Tangent contacts (MODEL 5.2, 5.3): everything is decided with g = k1 k2 F1 / F, finite at k -> 0.
 # `multiplier` is a tangential multiplier mu (|mu| <= mu_s); mu_s is the friction coefficient.
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def joint_torques(t1, t2, finger, springs):
     """Net closing torques of the joints per unit tendon tension (MODEL 5.1, 6): (r1, r2) in the
     paper's model; with the joint_springs effect the springs' K_i (t_i - theta_io) / F are
-    taken off (theta1_o = 0, theta2_o = theta2_min). `springs` is None or a JointSprings record;
+    taken off (theta1_o = 0, theta2_o = theta2_min). `springs` is a JointSprings record;
     the edge keeps both positive over the joint ranges (the tendon still closes the finger)."""
-    if springs is None:
+    if not springs.on:
         return finger.r1, finger.r2
     return (finger.r1 - springs.k1 / springs.tension * t1,
             finger.r2 - springs.k2 / springs.tension * (t2 - finger.theta2_min))
 
 
-@njit(cache=True)
+@inner
 def proximal_torque_balance(k2, t1, t2, finger, springs, multiplier):
     """g(mu) = tau1 k2 - tau2 (l1 cos t2 + k2) + mu tau2 l1 sin t2 (MODEL 5.3), for a given
     multiplier; tau = joint_torques (r1, r2 without springs)."""
@@ -204,7 +207,7 @@ def proximal_torque_balance(k2, t1, t2, finger, springs, multiplier):
             + multiplier * tau2 * finger.l1 * math.sin(t2))
 
 
-@njit(cache=True)
+@inner
 def friction_for_sticking(t2, mu_s):
     """The multiplier in [-mu_s, mu_s] that maximises g: friction opposing the slip."""
     s = math.sin(t2)
@@ -215,7 +218,7 @@ def friction_for_sticking(t2, mu_s):
     return 0.0
 
 
-@njit(cache=True)
+@inner
 def max_torque_balance(k2, t1, t2, finger, springs):
     """max over |mu| <= mu_s of g(mu): >= 0 means the finger can stick (tau2 > 0, so the
     maximising multiplier has the sign of sin t2 with or without springs)."""
@@ -223,13 +226,13 @@ def max_torque_balance(k2, t1, t2, finger, springs):
                                    friction_for_sticking(t2, finger.mu_s))
 
 
-@njit(cache=True)
+@inner
 def distal_lever(k2, t2, l1, multiplier):
     """Moment arm (per unit normal force) of a distal contact about the proximal joint."""
     return l1 * math.cos(t2) + k2 - multiplier * l1 * math.sin(t2)
 
 
-@njit(cache=True)
+@entry
 def sticks_on_lower_stop(k2, t1, t2, finger, springs):
     """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
     holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
@@ -246,7 +249,7 @@ def sticks_on_lower_stop(k2, t1, t2, finger, springs):
 # ---------------------------------------------------------------------------------------------
 # A vertex contact (tip_contact, model-notes D15): MODEL 5.1 as a small linear feasibility test
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def combine_balance(a, b):
     """The balance kind of a joint that has two suppliers of kinds a and b."""
     if a == BALANCE_EXACT:
@@ -256,7 +259,7 @@ def combine_balance(a, b):
     return BALANCE_FREE
 
 
-@njit(cache=True)
+@inner
 def stop_balance(at_lower, at_upper, lower_kind, upper_kind):
     """The balance kind a joint's engaged stops supply."""
     kind = BALANCE_EXACT
@@ -267,7 +270,7 @@ def stop_balance(at_lower, at_upper, lower_kind, upper_kind):
     return kind
 
 
-@njit(cache=True)
+@inner
 def _satisfies(f, g, tau1, tau2, cn1, cn2, ct1, ct2, mu_s, kind1, kind2):
     """Whether the contact term (F, G = F mu) satisfies every constraint, to round-off."""
     scale = abs(tau1) + abs(tau2) + (abs(f) + abs(g)) * (abs(cn1) + abs(cn2) + abs(ct1)
@@ -280,7 +283,7 @@ def _satisfies(f, g, tau1, tau2, cn1, cn2, ct1, ct2, mu_s, kind1, kind2):
     return _residual_ok(res1, kind1, tol) and _residual_ok(res2, kind2, tol)
 
 
-@njit(cache=True)
+@inner
 def _residual_ok(res, kind, tol):
     if kind == BALANCE_FREE:
         return True
@@ -291,7 +294,7 @@ def _residual_ok(res, kind, tol):
     return abs(res) <= tol
 
 
-@njit(cache=True)
+@inner
 def vertex_contact_holds(tau1, tau2, cn1, cn2, ct1, ct2, mu_s, kind1, kind2):
     """MODEL 5.1 for a finger with one vertex contact (columns c_n, c_t) and, per joint, what the
     rest of the finger can supply (a BALANCE_* kind): is there F >= 0, |mu| <= mu_s with the
@@ -324,7 +327,7 @@ def vertex_contact_holds(tau1, tau2, cn1, cn2, ct1, ct2, mu_s, kind1, kind2):
     return False
 
 
-@njit(cache=True)
+@inner
 def vertex_columns(cx, cy, bx, by, nx, ny, on_distal):
     """(c_n, c_t) of a contact at finger point c with unit normal n (tangent rot90(n)): its
     moments about J and, on the distal link, about B (else 0)."""
@@ -340,7 +343,7 @@ def vertex_columns(cx, cy, bx, by, nx, ny, on_distal):
     return cn1, cn2, ct1, ct2
 
 
-@njit(cache=True)
+@inner
 def unit_normal_to(dx, dy, cx, cy):
     """Unit vector from finger point c to the part centre d (a vertex contact's normal)."""
     ux = dx - cx
@@ -351,7 +354,7 @@ def unit_normal_to(dx, dy, cx, cy):
     return ux / norm, uy / norm
 
 
-@njit(cache=True)
+@inner
 def at_limit(value, lower, upper):
     """(at the lower limit, at the upper limit), inclusive with the MODEL 5.5 slack."""
     return value <= lower + RANGE_TOL, value >= upper - RANGE_TOL
@@ -362,8 +365,10 @@ def at_limit(value, lower, upper):
 
 # Events along a path (bit mask), in tie-break priority order (model-notes D4). On the tip path
 # SLIP is "lost": the tip no longer holds the part.
-STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = 1, 2, 4, 8
+STICK, DISTAL_STOP, PROXIMAL_STOP, SLIP = np.int64(1), np.int64(2), np.int64(4), np.int64(8)
 JOINT_STOPS = DISTAL_STOP | PROXIMAL_STOP
+# Which path follow_path steps (its `on_tip_path`).
+EDGE_PATH, TIP_PATH = np.bool_(False), np.bool_(True)
 MAX_PATH_STEPS = 10_000_000  # defence in depth: the edge refuses steps below 1e-6 rad
 # Bracket width of a path that ends on a joint stop, and of events that start within the same
 # step, whatever root_tol (model-notes D4, D19): the state on a stop must satisfy the stop (a
@@ -376,7 +381,7 @@ EXACT_TOL = 1e-12
 # ---------------------------------------------------------------------------------------------
 # The edge path (MODEL 5.3)
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def path_events(t1, t2, k2, finger, springs):
     """Bit mask of the reconfiguration events that hold at a state of the path (model-notes D4)."""
     events = 0
@@ -391,7 +396,7 @@ def path_events(t1, t2, k2, finger, springs):
     return events
 
 
-@njit(cache=True)
+@inner
 def edge_event_margin(event, t1, dx, dy, finger, springs):
     """(holds, margin) of one edge-path event at t1; the margin is continuous in t1 and >= 0
     where the event holds, so a bracketing root finder can interpolate it."""
@@ -409,7 +414,7 @@ def edge_event_margin(event, t1, dx, dy, finger, springs):
 # ---------------------------------------------------------------------------------------------
 # The tip path (tip_contact, model-notes D15)
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def tip_on_disc(t2, dx, dy, finger):
     """The finger with its distal at t2 turns about J until the tip meets the disc (D15):
     (meets, c, t1), c being MODEL 4's acos argument for the tip (it meets the disc iff
@@ -422,14 +427,14 @@ def tip_on_disc(t2, dx, dy, finger):
     return meets, c, t1
 
 
-@njit(cache=True)
+@inner
 def tip_polar(t2, l1, l2):
     """Radius and polar offset of the tip about J, relative to the proximal link (MODEL 4)."""
     rho = math.sqrt(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(t2))
     return rho, math.atan2(l2 * math.sin(t2), l1 + l2 * math.cos(t2))
 
 
-@njit(cache=True)
+@inner
 def tip_columns(t1, t2, dx, dy, finger):
     """(c_n, c_t) of a tip contact (D15): the moments about J and B of the contact's normal
     (from the tip to the part centre) and tangent."""
@@ -442,14 +447,14 @@ def tip_columns(t1, t2, dx, dy, finger):
     return vertex_columns(tx, ty, bx, by, nx, ny, True)
 
 
-@njit(cache=True)
+@inner
 def tip_stick_margin(tau1, tau2, cn1, cn2, ct1, ct2, mu_s):
     """gtip = tau x c_n + mu_s |tau x c_t| (D15): >= 0 where the tip can hold the finger or the
     tendon no longer drives it along the path (the analogue of gmax)."""
     return tau1 * cn2 - tau2 * cn1 + mu_s * abs(tau1 * ct2 - tau2 * ct1)
 
 
-@njit(cache=True)
+@inner
 def tip_node(s, dx, dy, finger, springs):
     """The tip path at s = -t2 (D15): (meets, c, t1, t2, gtip, pull, pushes, cut). pull =
     -tau . c_n > 0 where the tendon pulls the tip off the disc; pushes: where some multiplier
@@ -475,7 +480,7 @@ def tip_node(s, dx, dy, finger, springs):
     return meets, c, t1, t2, gtip, pull, pushes, cut, gap
 
 
-@njit(cache=True)
+@inner
 def proximal_link_gap(t1, dx, dy, finger):
     """|d - J B| / r - 1 for the proximal link at t1 (D21): < 0 where the link is inside the
     part, 0 where it touches it."""
@@ -485,7 +490,7 @@ def proximal_link_gap(t1, dx, dy, finger):
     return math.hypot(dx - s * bx, dy - s * by) / finger.r - 1.0
 
 
-@njit(cache=True)
+@inner
 def link_cut_at_tip(t1, t2, dx, dy, finger):
     """u . (T - d) / r for the distal link's direction u (D20): the link near its tip T lies
     inside the disc iff this is > 0 (|T - e u - d|^2 = r^2 - 2 e u . (T - d) + e^2)."""
@@ -497,14 +502,14 @@ def link_cut_at_tip(t1, t2, dx, dy, finger):
     return (ux * (tx - dx) + uy * (ty - dy)) / finger.r
 
 
-@njit(cache=True)
+@inner
 def tip_event_margin(event, s, dx, dy, finger, springs):
     """(holds, margin) of one tip-path event at s = -t2 (D15), as edge_event_margin."""
     meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
     return tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger)
 
 
-@njit(cache=True)
+@inner
 def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finger):
     """(holds, margin) of a tip-path event at a node: stick (gtip >= 0 with a pushing tip: the
     finger is in equilibrium, MODEL 5.1), distal stop (t2 >= theta2_max), proximal stop (t1 out
@@ -530,7 +535,7 @@ def tip_event_holds(event, meets, c, t1, t2, gtip, pull, pushes, cut, gap, finge
     return margin > 0.0, margin
 
 
-@njit(cache=True)
+@inner
 def tip_path_events(s, dx, dy, finger, springs):
     """Bit mask of the tip-path events that hold at s = -t2 (D15)."""
     meets, c, t1, t2, gtip, pull, pushes, cut, gap = tip_node(s, dx, dy, finger, springs)
@@ -546,23 +551,23 @@ def tip_path_events(s, dx, dy, finger, springs):
 # ---------------------------------------------------------------------------------------------
 # Either path: step t1 down to the first event, then bracket it
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
-def event_margin(event, t1, dx, dy, finger, springs, tip):
-    if tip is None:
+@inner
+def event_margin(event, t1, dx, dy, finger, springs, on_tip_path):
+    if not on_tip_path:
         return edge_event_margin(event, t1, dx, dy, finger, springs)
     return tip_event_margin(event, t1, dx, dy, finger, springs)
 
 
-@njit(cache=True)
-def event_mask_at(t1, dx, dy, finger, springs, tip):
-    if tip is None:
+@inner
+def event_mask_at(t1, dx, dy, finger, springs, on_tip_path):
+    if not on_tip_path:
         t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
         return path_events(t1, t2, k2, finger, springs)
     return tip_path_events(t1, dx, dy, finger, springs)
 
 
-@njit(cache=True)
-def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
+@inner
+def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, on_tip_path):
     """Where an event starts along the path: it holds at lo, not at hi (lo < hi). Returns the
     final bracket (lo, hi): the event holds at lo, and hi - lo <= root_tol.
 
@@ -570,10 +575,10 @@ def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
     inside the bracket and every fourth is a bisection, so the bracket shrinks to root_tol in a
     handful of evaluations (model-notes D4).
     """
-    if event == PROXIMAL_STOP and tip is None:  # the edge path's last node, t1 = 0
+    if event == PROXIMAL_STOP and not on_tip_path:  # the edge path's last node, t1 = 0
         return 0.0, hi
-    _, f_lo = event_margin(event, lo, dx, dy, finger, springs, tip)
-    _, f_hi = event_margin(event, hi, dx, dy, finger, springs, tip)
+    _, f_lo = event_margin(event, lo, dx, dy, finger, springs, on_tip_path)
+    _, f_hi = event_margin(event, hi, dx, dy, finger, springs, on_tip_path)
     kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
     for it in range(400):  # bounded: at worst every fourth probe halves the bracket
         width = hi - lo
@@ -583,7 +588,7 @@ def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
         if it % 4 != 3 and f_lo != f_hi:
             x = hi - f_hi * width / (f_hi - f_lo)
             x = min(max(x, lo + 0.5 * root_tol), hi - 0.5 * root_tol)
-        holds, f_x = event_margin(event, x, dx, dy, finger, springs, tip)
+        holds, f_x = event_margin(event, x, dx, dy, finger, springs, on_tip_path)
         if holds:
             lo = x
             f_lo = f_x
@@ -599,8 +604,8 @@ def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, tip):
     return lo, hi
 
 
-@njit(cache=True)
-def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
+@inner
+def follow_path(dx, dy, s_start, s_end, finger, solver, springs, on_tip_path):
     """Step the path's parameter s down from s_start to the first event, bracket each event that
     holds there, and return (event, s, s_after, s_free): the first event met (largest s; exact
     ties in the order stick, distal stop, proximal stop, slip), where it starts, the bracket's
@@ -620,7 +625,7 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
         lo = s_start - n * step
         if lo <= s_end or n == n_max:
             lo = s_end
-        events = event_mask_at(lo, dx, dy, finger, springs, tip)
+        events = event_mask_at(lo, dx, dy, finger, springs, on_tip_path)
         if events != 0:
             break
         hi = lo
@@ -633,7 +638,8 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
             tol = solver.root_tol
             if several or (event & JOINT_STOPS) != 0:
                 tol = min(tol, EXACT_TOL)
-            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol, tip)
+            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol,
+                                              on_tip_path)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_after = t_after
@@ -647,20 +653,20 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, tip):
 # =================================================================================================
 
 # Internal modes of a first contact that still has to be settled (never stored).
-OVERLAP = -1                   # the part overlaps the joint: the point is infeasible
-DISTAL_ON_LOWER_STOP = 16      # distal-only first contact of the rigid sweep (t2 = theta2_min)
-DISTAL_ON_PROXIMAL_STOP = 17   # distal-only contact with the proximal folded at t1 = pi
+OVERLAP = np.int64(-1)                 # the part overlaps the joint: the point is infeasible
+DISTAL_ON_LOWER_STOP = np.int64(16)    # distal-only first contact of the rigid sweep (t2 = th2min)
+DISTAL_ON_PROXIMAL_STOP = np.int64(17)  # distal-only contact with the proximal folded at t1 = pi
 # Vertex strikes, only with tip_contact (D15; without it they are VERTEX):
-JOINT_STRIKE = 18              # B strikes the part in the rigid sweep
-TIP_ON_LOWER_STOP = 19         # T strikes in the rigid sweep (t2 = theta2_min)
-TIP_ON_PROXIMAL_STOP = 20      # T strikes as the distal closes with t1 = pi
-PROXIMAL_THEN_TIP = 21         # T strikes as the distal closes after a proximal contact
+JOINT_STRIKE = np.int64(18)            # B strikes the part in the rigid sweep
+TIP_ON_LOWER_STOP = np.int64(19)       # T strikes in the rigid sweep (t2 = theta2_min)
+TIP_ON_PROXIMAL_STOP = np.int64(20)    # T strikes as the distal closes with t1 = pi
+PROXIMAL_THEN_TIP = np.int64(21)       # T strikes as the distal closes after a proximal contact
 
 
 # ---------------------------------------------------------------------------------------------
 # Closing sequence (MODEL 4): geometry only
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@entry
 def closing_contact(dx, dy, finger, effects):
     """First contact of the closing sequence, as a FingerState whose mode is FREE,
     PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
@@ -721,16 +727,16 @@ def closing_contact(dx, dy, finger, effects):
     return FingerState(FREE, t1, theta2_max, 0.0, 0.0, False)
 
 
-@njit(cache=True)
+@inner
 def strike_mode(tip, strike):
-    """The mode of a vertex strike: VERTEX in the paper's model (tip None), else the strike's
-    own internal mode, settled by settle_vertex (D15)."""
-    if tip is None:
+    """The mode of a vertex strike: VERTEX in the paper's model (tip_contact off), else the
+    strike's own internal mode, settled by settle_vertex (D15)."""
+    if not tip.on:
         return VERTEX
     return strike
 
 
-@njit(cache=True)
+@inner
 def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
     """Relative angle t2 at which the tip, turning about B with t1 fixed, enters the disc (inf:
     never)."""
@@ -742,10 +748,10 @@ def tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r):
     return wrap_angle(phi - t1)
 
 
-@njit(cache=True)
+@inner
 def distal_closes_after_proximal(dx, dy, t1, k1, finger, tip):
     """MODEL 4.3: after a proximal contact the distal closes about B with t1 fixed. If the tip
-    strikes the part on the way, the paper's answer is kept and flagged (tip None) or the tip
+    strikes the part on the way, the paper's answer is kept and flagged (tip_contact off) or the tip
     is a contact (tip_contact, D15)."""
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
     if k2 <= finger.l2 + RANGE_TOL and in_range(t2, finger.theta2_min, finger.theta2_max):
@@ -755,7 +761,7 @@ def distal_closes_after_proximal(dx, dy, t1, k1, finger, tip):
     # the part on the way, which is flagged (MODEL 4.3, model-notes D3).
     t2_tip = tip_entry_about_distal_joint(dx, dy, t1, finger.l1, finger.l2, finger.r)
     strikes = in_range(t2_tip, finger.theta2_min, finger.theta2_max)
-    if tip is not None and strikes:
+    if tip.on and strikes:
         return FingerState(PROXIMAL_THEN_TIP, t1, clamp(t2_tip, finger.theta2_min,
                                                         finger.theta2_max), k1, finger.l2, False)
     return FingerState(PROXIMAL_ONLY, t1, finger.theta2_max, k1, 0.0, strikes)
@@ -764,7 +770,7 @@ def distal_closes_after_proximal(dx, dy, t1, k1, finger, tip):
 # ---------------------------------------------------------------------------------------------
 # Stick-slip and reconfiguration (MODEL 5)
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@entry
 def reconfigure(dx, dy, t1_start, finger, solver, effects):
     """MODEL 5.3: slide the distal contact toward the tip while t1 decreases, until an event
     (the edge path above).
@@ -773,7 +779,7 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     tip_contact, a contact that passes the tip is taken over by the tip (D15).
     """
     event, t1, _, _ = follow_path(dx, dy, t1_start, 0.0, finger, solver, effects.joint_springs,
-                               None)
+                                  EDGE_PATH)
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
     if event == SLIP:
         return past_the_tip(effects.tip_contact, dx, dy, t1, t2, k2, finger, solver,
@@ -782,30 +788,30 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     return FingerState(DISTAL_ONLY, t1, min(t2, finger.theta2_max), 0.0, k2, False)
 
 
-@njit(cache=True)
+@inner
 def past_the_tip(tip, dx, dy, t1, t2, k2, finger, solver, springs):
     """The distal contact has slid to the tip: the part is lost (SLIPPED, the paper's ejection)
     or, with tip_contact, the finger follows the tip on the disc (D15)."""
-    if tip is None:
+    if not tip.on:
         return FingerState(SLIPPED, t1, t2, 0.0, k2, False)
-    return tip_path(dx, dy, t2, finger, solver, springs, tip)
+    return tip_path(dx, dy, t2, finger, solver, springs)
 
 
-@njit(cache=True)
-def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
+@inner
+def tip_path(dx, dy, t2_start, finger, solver, springs):
     """D15: the tip stays on the disc while the distal closes (t2 increases from t2_start, t1
     follows), until it can hold (TIP_ONLY), a joint stop (TIP_ONLY on the stop), the proximal
     link reaches the part (PROXIMAL_TIP, resting on it as on a stop, D21) or the part is lost
     (SLIPPED, where the tip last touched)."""
     event, s, s_touching, s_free = follow_path(dx, dy, -t2_start, -finger.theta2_max, finger,
-                                               solver, springs, tip)
+                                               solver, springs, TIP_PATH)
     if event == SLIP:
         s = s_touching
     if event != PROXIMAL_STOP and tip_event_margin(PROXIMAL_STOP, s, dx, dy, finger, springs)[0]:
         # the proximal stop (or the part, D21) was passed within the last step, unseen at its
         # nodes (a coarse reconfig_step): the path ends where it is first met (D19)
         s, _ = event_crossing(PROXIMAL_STOP, s, s_free, dx, dy, finger, springs,
-                              min(solver.root_tol, EXACT_TOL), tip)
+                              min(solver.root_tol, EXACT_TOL), TIP_PATH)
         event = PROXIMAL_STOP
     t2 = min(-s, finger.theta2_max)
     if event == DISTAL_STOP:  # on the stop itself (as the edge path ends on t1 = 0 exactly)
@@ -821,7 +827,7 @@ def tip_path(dx, dy, t2_start, finger, solver, springs, tip):
     return FingerState(TIP_ONLY, t1, t2, 0.0, finger.l2, False)
 
 
-@njit(cache=True)
+@inner
 def tip_contact_holds(state, dx, dy, finger, springs, proximal_contact):
     """MODEL 5.1 for a finger touching the part with its tip (D15), with a proximal edge contact
     or not, and with the stops its joints rest on."""
@@ -837,10 +843,10 @@ def tip_contact_holds(state, dx, dy, finger, springs, proximal_contact):
     return vertex_contact_holds(tau1, tau2, cn1, cn2, ct1, ct2, finger.mu_s, proximal, distal)
 
 
-@njit(cache=True)
+@inner
 def settle_vertex(tip, first, dx, dy, finger, solver, effects):
     """D15: settle a vertex strike (tip_contact only; without it a strike stays VERTEX)."""
-    if tip is None:
+    if not tip.on:
         return first
     mode = first.mode
     if mode == JOINT_STRIKE:
@@ -851,10 +857,10 @@ def settle_vertex(tip, first, dx, dy, finger, solver, effects):
     if tip_contact_holds(first, dx, dy, finger, effects.joint_springs, with_proximal):
         return FingerState(PROXIMAL_TIP if with_proximal else TIP_ONLY, first.t1, first.t2,
                            first.k1 if with_proximal else 0.0, finger.l2, False)
-    return tip_path(dx, dy, first.t2, finger, solver, effects.joint_springs, tip)
+    return tip_path(dx, dy, first.t2, finger, solver, effects.joint_springs)
 
 
-@njit(cache=True)
+@entry
 def settle(first, dx, dy, finger, solver, effects):
     """Apply the stick-slip cases to a first contact: the finger's final FingerState."""
     mode = first.mode
@@ -876,7 +882,7 @@ def settle(first, dx, dy, finger, solver, effects):
     return first
 
 
-@njit(cache=True)
+@entry
 def solve_finger(dx, dy, finger, solver, effects):
     """The finger's equilibrium configuration (FingerState); mode OVERLAP (-1) means the part
     overlaps the joint (infeasible point). tip_overlap is decided by the closing sequence.
@@ -886,15 +892,15 @@ def solve_finger(dx, dy, finger, solver, effects):
     return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 
 
-@njit(cache=True)
+@inner
 def took_tip_path(mode, tip):
     """A settled finger whose final state may lie on the tip path (D15): TIP_ONLY, PROXIMAL_TIP,
     or SLIPPED with tip_contact (the part lost by the tip). Its closing is not the rigid sweep
     then the distal closing that finger_collision rebuilds from the final angles (D14, D29)."""
-    return tip is not None and (mode == TIP_ONLY or mode == PROXIMAL_TIP or mode == SLIPPED)
+    return tip.on and (mode == TIP_ONLY or mode == PROXIMAL_TIP or mode == SLIPPED)
 
 
-@njit(cache=True)
+@entry
 def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
     """(on_tip, t1, t2, k1) where the finger's tip path began (model-notes D29), its closing up to
     there being the rigid sweep then the distal closing, and the proximal contact it had there.
@@ -912,7 +918,7 @@ def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
         return True, first.t1, first.t2, first.k1
     # the contact slid along the distal link to the tip first (reconfigure, then past_the_tip)
     _, t1e, _, _ = follow_path(dx, dy, first.t1, 0.0, finger, solver, effects.joint_springs,
-                               None)
+                               EDGE_PATH)
     t2e, _ = distal_tangency(dx, dy, t1e, finger.l1, finger.r)
     return True, t1e, t2e, 0.0
 
@@ -920,22 +926,22 @@ def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
 # ---------------------------------------------------------------------------------------------
 # Energy (MODEL 6) and contact forces (MODEL 5.1, 5.6)
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@entry
 def finger_energy(t1, t2, r1, r2, tension, theta2_min):
     """V = -F [r1 (t1 - theta1_o) + r2 (t2 - theta2_o)] with theta1_o = 0, theta2_o = theta2_min."""
     return -tension * (r1 * t1 + r2 * (t2 - theta2_min))
 
 
-@njit(cache=True)
+@inner
 def spring_energy(t1, t2, springs, theta2_min):
     """Energy stored in the joint springs, 1/2 K1 t1^2 + 1/2 K2 (t2 - theta2_min)^2: the
     potential of the torques K_i (t_i - theta_io) (MODEL 6, 9; model-notes D13); 0 when off."""
-    if springs is None:
+    if not springs.on:
         return 0.0
     return 0.5 * springs.k1 * t1 * t1 + 0.5 * springs.k2 * (t2 - theta2_min) ** 2
 
 
-@njit(cache=True)
+@inner
 def contact_count(mode):
     """Tangent contacts a finger's final mode has with the part (MODEL 7)."""
     if mode == TWO_PHALANX:
@@ -945,7 +951,7 @@ def contact_count(mode):
     return 0
 
 
-@njit(cache=True)
+@inner
 def joints_on_limits(state, finger):
     """How many of the finger's joints rest on a limit (each may carry a stop torque)."""
     lower1, upper1 = at_limit(state.t1, 0.0, math.pi)
@@ -953,7 +959,7 @@ def joints_on_limits(state, finger):
     return int(lower1 or upper1) + int(lower2 or upper2)
 
 
-@njit(cache=True)
+@inner
 def normal_forces(state, finger):
     """(F1, F2, mu2) per unit tension (MODEL 5.6): normal forces and the distal multiplier.
 
@@ -970,6 +976,8 @@ def normal_forces(state, finger):
     r1 = finger.r1
     r2 = finger.r2
     mu_s = finger.mu_s
+    # the paper's model: forces with joint_springs are refused (model-notes D13)
+    no_springs = JointSprings(False, 0.0, 0.0, 1.0)
     if mode == PROXIMAL_ONLY:
         if k1 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
@@ -977,19 +985,19 @@ def normal_forces(state, finger):
     if mode == TWO_PHALANX:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t1, t2, finger, None, 0.0)
+        g0 = proximal_torque_balance(k2, t1, t2, finger, no_springs, 0.0)
         mu2 = 0.0
         if g0 < 0.0 and math.sin(t2) != 0.0:
             mu2 = clamp(-g0 / (r2 * l1 * math.sin(t2)), -mu_s, mu_s)
         f2 = r2 / k2
         f1 = 0.0
         if k1 > RANGE_TOL:
-            f1 = max(proximal_torque_balance(k2, t1, t2, finger, None, mu2) / (k1 * k2), 0.0)
+            f1 = max(proximal_torque_balance(k2, t1, t2, finger, no_springs, mu2) / (k1 * k2), 0.0)
         return f1, f2, mu2
     if mode == DISTAL_ONLY:
         if k2 <= RANGE_TOL:
             return 0.0, 0.0, 0.0
-        g0 = proximal_torque_balance(k2, t1, t2, finger, None, 0.0)
+        g0 = proximal_torque_balance(k2, t1, t2, finger, no_springs, 0.0)
         s = math.sin(t2)
         if t2 <= finger.theta2_min + RANGE_TOL:
             # On the distal lower stop: stop torque >= 0 needs g(mu) >= 0; the proximal balance
@@ -1017,7 +1025,7 @@ def normal_forces(state, finger):
     return 0.0, 0.0, 0.0
 
 
-@njit(cache=True)
+@entry
 def finger_statics(state, finger):
     """Contact forces of a settled finger on the part per unit tension (MODEL 5.1, 5.6), with
     the resultant in the finger's own frame.

@@ -39,8 +39,9 @@ One module, not two (P14): the import chain from the CLI to the model stays with
 import math
 import numpy as np
 
-from numba import njit
 
+from .jit import entry, inner
+from .records import LEFT, RIGHT
 from ..model import (
     DISTAL_ONLY,
     FREE,
@@ -61,21 +62,21 @@ TOUCH2 = RANGE_TOL * RANGE_TOL  # squared distance under which two points or seg
 BOX_GAP = 1e-9  # bounding boxes this far apart: the segments neither cross nor touch
 
 
-@njit(cache=True)
+@entry
 def finger_polyline(side, t1, t2, l1, l2, w):
     """World coordinates (Jx, Jy, Bx, By, Tx, Ty) of a finger; side 0 = left, 1 = right."""
     l1c, l1s, l2c, l2s = link_vectors(t1, t2, l1, l2)
     return polyline_from_links(side, w, l1c, l1s, l2c, l2s)
 
 
-@njit(cache=True)
+@inner
 def link_vectors(t1, t2, l1, l2):
     """The links as vectors in the finger's frame: l1 (cos t1, sin t1), l2 (cos phi, sin phi)."""
     phi = t1 + t2
     return l1 * math.cos(t1), l1 * math.sin(t1), l2 * math.cos(phi), l2 * math.sin(phi)
 
 
-@njit(cache=True)
+@inner
 def polyline_from_links(side, w, l1c, l1s, l2c, l2s):
     """finger_polyline from the link vectors l1 (cos t1, sin t1), l2 (cos phi, sin phi) in the
     finger's frame (the sweep computes them once per shared field point). The left finger is
@@ -87,7 +88,7 @@ def polyline_from_links(side, w, l1c, l1s, l2c, l2s):
     return jx, 0.0, bx, l1s, tx, l1s + l2s
 
 
-@njit(cache=True)
+@inner
 def add_contact(angles, n, normal_angle, cone_half_angle):
     """Append the two friction-cone edges of a contact whose normal has this world angle."""
     angles[n] = normal_angle - cone_half_angle
@@ -95,7 +96,7 @@ def add_contact(angles, n, normal_angle, cone_half_angle):
     return n + 2
 
 
-@njit(cache=True)
+@inner
 def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
     """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the
     left)."""
@@ -108,7 +109,7 @@ def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
     return n
 
 
-@njit(cache=True)
+@inner
 def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half_angle):
     """Add a finger's tip contact (tip_contact, model-notes D15): normal from the tip to the
     part centre, world frame."""
@@ -118,7 +119,7 @@ def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half
     return n
 
 
-@njit(cache=True)
+@inner
 def origin_in_cone_hull(angles, n):
     """MODEL 7: the origin lies in the convex hull of unit edge directions iff no angular gap > pi.
 
@@ -135,7 +136,7 @@ def origin_in_cone_hull(angles, n):
     return largest_gap <= math.pi + GAP_TOL
 
 
-@njit(cache=True)
+@inner
 def sort_small(values, n):
     """Sort values[:n] in place, ascending (insertion sort: a handful of values, where np.sort
     costs more than the sorting)."""
@@ -148,26 +149,26 @@ def sort_small(values, n):
         values[j + 1] = a
 
 
-@njit(cache=True)
+@entry
 def touches_palm(x, y, w, r):
     """The part rests on the palm (MODEL 7): |y - r| <= PALM_TOL and |x| <= w/2 + PALM_TOL."""
     return abs(y - r) <= PALM_TOL and abs(x) <= 0.5 * w + PALM_TOL
 
 
-@njit(cache=True)
+@inner
 def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r, l1, l2,
                         tip):
     """Cone-hull equilibrium of the part with both fingers' tangent contacts, their tip contacts
-    (tip_contact: `tip` not None) and the palm.
+    (with tip_contact: `tip.on`) and the palm.
 
     `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
     """
     cone = math.atan(mu)
-    n = finger_contact_normals(angles, 0, 0, mode_l, t1_l, t2_l, cone)
-    n = finger_contact_normals(angles, n, 1, mode_r, t1_r, t2_r, cone)
-    if tip is not None:
-        n = tip_contact_normal(angles, n, 0, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone)
-        n = tip_contact_normal(angles, n, 1, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone)
+    n = finger_contact_normals(angles, np.int64(0), LEFT, mode_l, t1_l, t2_l, cone)
+    n = finger_contact_normals(angles, n, RIGHT, mode_r, t1_r, t2_r, cone)
+    if tip.on:
+        n = tip_contact_normal(angles, n, LEFT, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone)
+        n = tip_contact_normal(angles, n, RIGHT, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone)
     if touches_palm(x, y, w, r):
         n = add_contact(angles, n, 0.5 * math.pi, cone)
     if n < 4:
@@ -175,13 +176,13 @@ def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r
     return origin_in_cone_hull(angles, n)
 
 
-@njit(cache=True)
+@inner
 def _edge_toggles(px, py, ax, ay, bx, by):
     """PNPOLY's crossing rule for one polygon edge (model-notes D5)."""
     return (ay > py) != (by > py) and px < (bx - ax) * (py - ay) / (by - ay) + ax
 
 
-@njit(cache=True)
+@entry
 def part_contained(px, py, left, right):
     """The part centre strictly inside the polygon J_L, B_L, T_L, T_R, B_R, J_R.
 
@@ -215,7 +216,7 @@ def part_contained(px, py, left, right):
     return boundary > TOUCH2
 
 
-@njit(cache=True)
+@inner
 def point_segment_distance2(px, py, ax, ay, bx, by):
     """Squared distance from a point to a segment."""
     vx = bx - ax
@@ -229,17 +230,17 @@ def point_segment_distance2(px, py, ax, ay, bx, by):
     return dx * dx + dy * dy
 
 
-@njit(cache=True)
+@inner
 def point_segment_distance(px, py, ax, ay, bx, by):
     return math.sqrt(point_segment_distance2(px, py, ax, ay, bx, by))
 
 
-@njit(cache=True)
+@inner
 def _orientation(ax, ay, bx, by, cx, cy):
     return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
 
 
-@njit(cache=True)
+@inner
 def segments_intersect(ax, ay, bx, by, cx, cy, dx, dy):
     """Segments AB and CD cross, or touch within RANGE_TOL (model-notes D5).
 
@@ -257,7 +258,7 @@ def segments_intersect(ax, ay, bx, by, cx, cy, dx, dy):
                point_segment_distance2(dx, dy, ax, ay, bx, by)) <= TOUCH2
 
 
-@njit(cache=True)
+@entry
 def fingers_cross(left, right):
     """The two fingers' polylines intersect (cross or touch), not counting a shared base.
 
@@ -277,7 +278,7 @@ def fingers_cross(left, right):
             or segments_intersect(blx, bly, tlx, tly, brx, bry, trx, try_))
 
 
-@njit(cache=True)
+@entry
 def mouth_opening(left, right):
     """L_open (MODEL 8): the largest part that could escape between the fingertips; 0 if the
     fingers' polylines intersect."""
@@ -286,7 +287,7 @@ def mouth_opening(left, right):
     return tip_clearance(left, right)
 
 
-@njit(cache=True)
+@inner
 def tip_clearance(left, right):
     """L_open of fingers known not to intersect: the least tip-to-tip and tip-to-finger distance."""
     jlx, jly, blx, bly, tlx, tly = left
@@ -308,7 +309,7 @@ MAX_PROGRESS_STEPS = 10_000_000  # defence in depth, as for the reconfiguration 
 # ---------------------------------------------------------------------------------------------
 # The rule and its reference search
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def closing_path_angles(progress, t1_end, t2_end, theta2_min):
     """(t1, t2) of a finger at closing progress p along the path to (t1_end, t2_end): the
     rigid sweep t1 = p (distal on its lower stop), then the distal closes about B,
@@ -318,40 +319,40 @@ def closing_path_angles(progress, t1_end, t2_end, theta2_min):
     return t1_end, min(theta2_min + (progress - t1_end), t2_end)
 
 
-@njit(cache=True)
+@entry
 def paths_cross_at(progress, t1l, t2l, t1r, t2r, finger, w):
     a1l, a2l = closing_path_angles(progress, t1l, t2l, finger.theta2_min)
     a1r, a2r = closing_path_angles(progress, t1r, t2r, finger.theta2_min)
-    return fingers_cross(finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w),
-                         finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w))
+    return fingers_cross(finger_polyline(LEFT, a1l, a2l, finger.l1, finger.l2, w),
+                         finger_polyline(RIGHT, a1r, a2r, finger.l1, finger.l2, w))
 
 
-@njit(cache=True)
+@inner
 def path_end(t1l, t2l, t1r, t2r, theta2_min):
     """The progress at which the later finger's closing path ends."""
     return max(t1l + (t2l - theta2_min), t1r + (t2r - theta2_min))
 
 
-@njit(cache=True)
+@inner
 def node_progress(n, step, p_end):
     """Progress of search node n (the last node is the end of the paths)."""
     return min(n * step, p_end)
 
 
-@njit(cache=True)
+@entry
 def meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision):
     """The last shared progress before the fingers' closing paths first meet (within
     collision.tol), or -1 if they do not meet on the way to their configurations (or already
     touch when open). The reference search: every node from the start."""
     if paths_cross_at(0.0, t1l, t2l, t1r, t2r, finger, w):
         return -1.0
-    n = first_crossing_node(t1l, t2l, t1r, t2r, finger, w, collision, 1)
+    n = first_crossing_node(t1l, t2l, t1r, t2r, finger, w, collision, np.int64(1))
     if n < 0:
         return -1.0
     return bisect_crossing_step(n, t1l, t2l, t1r, t2r, finger, w, collision)
 
 
-@njit(cache=True)
+@inner
 def first_crossing_node(t1l, t2l, t1r, t2r, finger, w, collision, n_start):
     """The first search node n >= n_start where the fingers cross (-1 if none), the nodes
     before n_start being known not to cross.
@@ -378,7 +379,7 @@ def first_crossing_node(t1l, t2l, t1r, t2r, finger, w, collision, n_start):
     return -1
 
 
-@njit(cache=True)
+@inner
 def bisect_crossing_step(n, t1l, t2l, t1r, t2r, finger, w, collision):
     """The last progress before the crossing in the step ending at node n, bisected to
     collision.tol (bounded)."""
@@ -397,7 +398,7 @@ def bisect_crossing_step(n, t1l, t2l, t1r, t2r, finger, w, collision):
     return lo
 
 
-@njit(cache=True)
+@inner
 def paths_gap_at(progress, t1l, t2l, t1r, t2r, finger, w):
     """A lower bound, less a safety margin, of the distance between the two fingers at a
     progress where they do not meet (0 if unsure): the least distance between their segments,
@@ -405,8 +406,8 @@ def paths_gap_at(progress, t1l, t2l, t1r, t2r, finger, w):
     joint on the other proximal link counts as meeting (fingers_cross)."""
     a1l, a2l = closing_path_angles(progress, t1l, t2l, finger.theta2_min)
     a1r, a2r = closing_path_angles(progress, t1r, t2r, finger.theta2_min)
-    jlx, jly, blx, bly, tlx, tly = finger_polyline(0, a1l, a2l, finger.l1, finger.l2, w)
-    jrx, jry, brx, bry, trx, try_ = finger_polyline(1, a1r, a2r, finger.l1, finger.l2, w)
+    jlx, jly, blx, bly, tlx, tly = finger_polyline(LEFT, a1l, a2l, finger.l1, finger.l2, w)
+    jrx, jry, brx, bry, trx, try_ = finger_polyline(RIGHT, a1r, a2r, finger.l1, finger.l2, w)
     gap2 = min(segment_gap2(jlx, jly, blx, bly, brx, bry, trx, try_),
                segment_gap2(blx, bly, tlx, tly, jrx, jry, brx, bry),
                segment_gap2(blx, bly, tlx, tly, brx, bry, trx, try_))
@@ -418,7 +419,7 @@ def paths_gap_at(progress, t1l, t2l, t1r, t2r, finger, w):
     return max(math.sqrt(gap2) - 1e-9, 0.0)
 
 
-@njit(cache=True)
+@inner
 def segment_gap2(ax, ay, bx, by, cx, cy, dx, dy):
     """Squared distance between segments AB and CD that do not cross (the least of the four
     endpoint-to-segment distances)."""
@@ -428,7 +429,7 @@ def segment_gap2(ax, ay, bx, by, cx, cy, dx, dy):
                point_segment_distance2(dx, dy, ax, ay, bx, by))
 
 
-@njit(cache=True)
+@entry
 def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
     """(changed, mode, t1, t2, k1, k2) of a finger stopped by the other at `progress` of its
     closing path. A finger whose path ends first is at rest (the other's stop): unchanged. A
@@ -443,7 +444,7 @@ def stopped_finger(progress, mode, t1, t2, k1, k2, theta2_min):
     return True, FREE, a1, a2, 0.0, 0.0
 
 
-@njit(cache=True)
+@inner
 def rests_on_other_finger(mode, t1, t2, finger):
     """A finger that finger_collision stopped on the other (`stopped_finger`): free short of
     its fully closed configuration (t1 = pi, t2 = theta2_max), or proximal-only with its distal
@@ -457,28 +458,28 @@ def rests_on_other_finger(mode, t1, t2, finger):
     return False
 
 
-@njit(cache=True)
+@entry
 def settled_fingers_cross(t1l, t2l, t1r, t2r, finger, w):
     """The test that selects the points to re-run: the fingers cross in their final
     configurations (elsewhere they are taken not to have met on the way, model-notes D14)."""
-    return fingers_cross(finger_polyline(0, t1l, t2l, finger.l1, finger.l2, w),
-                         finger_polyline(1, t1r, t2r, finger.l1, finger.l2, w))
+    return fingers_cross(finger_polyline(LEFT, t1l, t2l, finger.l1, finger.l2, w),
+                         finger_polyline(RIGHT, t1r, t2r, finger.l1, finger.l2, w))
 
 
-@njit(cache=True)
+@inner
 def settled_angles(fingers, j, i):
     """(t1 left, t2 left, t1 right, t2 right) of point (j, i)."""
     return fingers.t1[0, j, i], fingers.t2[0, j, i], fingers.t1[1, j, i], fingers.t2[1, j, i]
 
 
-@njit(cache=True)
+@inner
 def stop_fingers_at(fingers, j, i, p, theta2_min):
     """Stop both fingers of point (j, i) at the meeting progress p (in place); True if one
     changed."""
     changed = False
     for side in range(2):
         c, m, a1, a2, k1, k2 = stopped_finger(
-            p, fingers.mode[side, j, i], fingers.t1[side, j, i], fingers.t2[side, j, i],
+            p, np.int64(fingers.mode[side, j, i]), fingers.t1[side, j, i], fingers.t2[side, j, i],
             fingers.k1[side, j, i], fingers.k2[side, j, i], theta2_min)
         if c:
             changed = True
@@ -490,11 +491,11 @@ def stop_fingers_at(fingers, j, i, p, theta2_min):
     return changed
 
 
-@njit(cache=True)
+@entry
 def resolve_collisions_reference(ys, finger, w, fingers, collision):
     """resolve_collisions by the reference search at every point (the way of the first
     implementation, kept to test the map's way against)."""
-    if collision is None:
+    if not collision.on:
         return 0
     n_changed = 0
     for j in range(ys.shape[0]):
@@ -528,7 +529,7 @@ HINT = SETTLED + 12      # and the pair (f v seg as 6 f + 2 v + seg) that met fi
 WORK_SIZE = HINT + 1     # scratch: 6 events, up to 5 phases, 2 x 6 settled links, the hint
 
 
-@njit(cache=True)
+@inner
 def symmetric_meeting(finger, w, collision):
     """(starts_crossed, node progress, meeting) of the symmetric closing of one map: both
     fingers sweep rigidly; `node progress` is the first crossing node's progress (inf if none
@@ -538,14 +539,14 @@ def symmetric_meeting(finger, w, collision):
     end = math.pi + SYMMETRIC_END_STEPS * collision.progress_step
     if paths_cross_at(0.0, end, th, end, th, finger, w):
         return True, math.inf, math.inf
-    n = first_crossing_node(end, th, end, th, finger, w, collision, 1)
+    n = first_crossing_node(end, th, end, th, finger, w, collision, np.int64(1))
     if n < 0:
         return False, math.inf, math.inf
     return (False, node_progress(n, collision.progress_step, end),
             bisect_crossing_step(n, end, th, end, th, finger, w, collision))
 
 
-@njit(cache=True)
+@inner
 def meeting_after_symmetric(t1l, t2l, t1r, t2r, finger, w, collision, sym_meeting, work):
     """The reference's meeting for a point whose fingers did not cross while both swept
     rigidly (every node up to a = min t1 is symmetric and does not cross)."""
@@ -566,7 +567,7 @@ def meeting_after_symmetric(t1l, t2l, t1r, t2r, finger, w, collision, sym_meetin
     return bisect_crossing_step(n, t1l, t2l, t1r, t2r, finger, w, collision)
 
 
-@njit(cache=True)
+@inner
 def predicted_meeting(t1l, t2l, t1r, t2r, finger, w, collision, a, work):
     """The reference's answer, found from the first contact after a (UNSURE if a check
     fails): the contact gives the first crossing node and the switch point of the predicate
@@ -614,7 +615,7 @@ def predicted_meeting(t1l, t2l, t1r, t2r, finger, w, collision, a, work):
     return lo
 
 
-@njit(cache=True)
+@entry
 def bisect_by_comparison(lo, hi, tau, tol):
     """The reference's bisection steps while the midpoint is farther than REPLAY_WINDOW from
     tau (decided by comparison): (lo, hi, stopped at a midpoint near tau).
@@ -649,7 +650,7 @@ def bisect_by_comparison(lo, hi, tau, tol):
     return math.ldexp(float(a), -scale), math.ldexp(float(b), -scale), stopped
 
 
-@njit(cache=True)
+@inner
 def bisect_by_comparison_float(lo, hi, tau, tol):
     """bisect_by_comparison in floating point (lo and hi in different binades)."""
     for _ in range(200):
@@ -664,7 +665,7 @@ def bisect_by_comparison_float(lo, hi, tau, tol):
     return lo, hi, False
 
 
-@njit(cache=True)
+@inner
 def settle_links(cache, side, t1, t2, l1c, l1s, l2c, l2s):
     """A settled finger's angles and link vectors (`part.link_vectors`) into cache[6 side:]:
     t1, l1 cos t1, l1 sin t1, phi = t1 + t2, l2 cos phi, l2 sin phi (`crossing_at`)."""
@@ -677,25 +678,25 @@ def settle_links(cache, side, t1, t2, l1c, l1s, l2c, l2s):
     cache[c + 5] = l2s
 
 
-@njit(cache=True)
+@inner
 def settled_polyline(side, w, cache):
     """The settled finger's polyline from its cached link vectors."""
     c = 6 * side
     return polyline_from_links(side, w, cache[c + 1], cache[c + 2], cache[c + 4], cache[c + 5])
 
 
-@njit(cache=True)
+@inner
 def crossing_at(progress, t1l, t2l, t1r, t2r, finger, w, cache):
     """paths_cross_at, bit for bit, with the settled fingers' link vectors taken from `cache`
     (`settle_links`) wherever a finger's angle is its settled one."""
     th = finger.theta2_min
     a1l, a2l = closing_path_angles(progress, t1l, t2l, th)
     a1r, a2r = closing_path_angles(progress, t1r, t2r, th)
-    return fingers_cross(polyline_at(0, a1l, a2l, finger, w, cache),
-                         polyline_at(1, a1r, a2r, finger, w, cache))
+    return fingers_cross(polyline_at(LEFT, a1l, a2l, finger, w, cache),
+                         polyline_at(RIGHT, a1r, a2r, finger, w, cache))
 
 
-@njit(cache=True)
+@inner
 def polyline_at(side, t1, t2, finger, w, cache):
     """finger_polyline(side, t1, t2, ...) with the cached link vectors where they apply."""
     c = 6 * side
@@ -715,7 +716,7 @@ def polyline_at(side, t1, t2, finger, w, cache):
     return polyline_from_links(side, w, l1c, l1s, l2c, l2s)
 
 
-@njit(cache=True)
+@inner
 def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
     """The progress after `a` at which the two polylines first come within RANGE_TOL (where
     `fingers_cross` starts to hold), NO_CONTACT if they do not before p_end, UNSURE for a
@@ -736,7 +737,7 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
     events[3] = t1l + (t2l - th)
     events[4] = t1r + (t2r - th)
     events[5] = p_end
-    sort_small(events, 6)
+    sort_small(events, np.int64(6))
     n_phase = 0  # phases after a (start, end, motions, vertices at the start), set up in turn
     e = 0
     best = math.inf  # the earliest progress at which a pair comes within RANGE_TOL
@@ -784,7 +785,7 @@ def first_contact(t1l, t2l, t1r, t2r, finger, w, a, p_end, work):
     return best if best < math.inf else NO_CONTACT
 
 
-@njit(cache=True)
+@inner
 def search_limit(ph, before):
     """How far into phase `ph` a pair's contact is searched: to the earliest contact found
     (plus the largest touching shift), or a little past the phase's end (a contact at the end
@@ -792,7 +793,7 @@ def search_limit(ph, before):
     return min(before + TOUCH_SHIFT_MAX, ph[1] + PHASE_OVERLAP) - ph[0]
 
 
-@njit(cache=True)
+@inner
 def palm_out_of_reach(ph, g):
     """Finger g's links cannot reach the other finger's palm joint J in phase `ph`: sweeping
     rigidly with t1 short of pi, its links stay off the palm line except on its own side of
@@ -802,7 +803,7 @@ def palm_out_of_reach(ph, g):
     return int(ph[2 + g]) == 2 and ph[1] + PHASE_OVERLAP < math.pi - 1e-6
 
 
-@njit(cache=True)
+@inner
 def set_phase(ph, p0, p1, t1l, t2l, t1r, t2r, finger, w, cache):
     """A phase of first_contact: start, end, the motions of both fingers in it (0 rest,
     1 distal about B, 2 rigid about J), the vertices J, B, T of both at its start, the unit
@@ -827,7 +828,7 @@ def set_phase(ph, p0, p1, t1l, t2l, t1r, t2r, finger, w, cache):
         ph[19 + 4 * s] = (ty - by) / finger.l2
 
 
-@njit(cache=True)
+@inner
 def pair_contact(ph, f, v, seg, limit, limit_pa, finger):
     """When vertex v of finger f first comes within RANGE_TOL of segment `seg` of the other
     finger during phase `ph` (see set_phase), if within `limit` of the phase's start
@@ -873,7 +874,7 @@ def pair_contact(ph, f, v, seg, limit, limit_pa, finger):
     return p0 + theta - RANGE_TOL / speed
 
 
-@njit(cache=True)
+@inner
 def finger_motion(progress, t1_end, t2_end, theta2_min):
     """How a finger moves just after `progress`: 2 rigid sweep (about J), 1 distal closing
     (about B), 0 at rest."""
@@ -884,7 +885,7 @@ def finger_motion(progress, t1_end, t2_end, theta2_min):
     return 0
 
 
-@njit(cache=True)
+@inner
 def turning(side, motion, point):
     """(rate, centre) of a finger's vertex (point 0 J, 1 B, 2 T) or link (by its far end:
     1 proximal, 2 distal) while the finger moves by `motion`: the rate is the world rotation
@@ -897,7 +898,7 @@ def turning(side, motion, point):
     return 0.0, 0
 
 
-@njit(cache=True)
+@inner
 def vertex_segment_contact(kx, ky, ex, ey, w1, xx, xy, w2, ux, uy, nd, theta_max):
     """First theta in [0, theta_max] at which Y(theta) = K + R(w1 theta) E + R(w2 theta) X
     (w1 = +-1, w2 = +-2: both fingers turn) lies on the segment from the origin along the
@@ -927,7 +928,7 @@ def vertex_segment_contact(kx, ky, ex, ey, w1, xx, xy, w2, ux, uy, nd, theta_max
     return two_term_root(f0, g0, p1, q1, a1, w1, p2, q2, a2, w2, nd, theta_max)
 
 
-@njit(cache=True)
+@inner
 def contact_or_not(g, speed, nd):
     """A root of the line distance is a contact if it lies within the segment's span."""
     if -RANGE_TOL <= g <= nd + RANGE_TOL:
@@ -937,7 +938,7 @@ def contact_or_not(g, speed, nd):
     return False, False
 
 
-@njit(cache=True)
+@inner
 def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max, limit_pseudo_angle):
     """vertex_segment_contact for Y(theta) = K + R(w theta) X, w = +-1: a circle about K of
     radius |X|, met by the segment {t u, 0 <= t <= nd} where
@@ -982,14 +983,14 @@ def one_term_root(kx, ky, xx, xy, w, ux, uy, nd, theta_max, limit_pseudo_angle):
     return best, speed
 
 
-@njit(cache=True)
+@inner
 def pseudo_angle(cos_a, sin_a):
     """A monotone function of the angle a in [0, 2 pi) from its cosine and the sign of its
     sine: 1 - cos a on [0, pi], 3 + cos a on (pi, 2 pi); 4 and more for a >= 2 pi."""
     return 1.0 - cos_a if sin_a >= 0.0 else 3.0 + cos_a
 
 
-@njit(cache=True)
+@inner
 def limit_pseudo_angle(theta_max):
     """pseudo_angle of a search limit (with a margin: the arctangent decides near it)."""
     if theta_max >= 2.0 * math.pi:
@@ -997,7 +998,7 @@ def limit_pseudo_angle(theta_max):
     return pseudo_angle(math.cos(theta_max), math.sin(theta_max)) + 1e-9
 
 
-@njit(cache=True)
+@inner
 def two_terms(f0, p1, q1, w1, p2, q2, w2, theta):
     """(f, f', c1, s1, c2, s2) of f = f0 + p1 cos(w1 t) + q1 sin(w1 t) + p2 cos(w2 t) + ..."""
     c = math.cos(theta)
@@ -1015,7 +1016,7 @@ def two_terms(f0, p1, q1, w1, p2, q2, w2, theta):
     return f, fp, c1, s1, c2, s2
 
 
-@njit(cache=True)
+@inner
 def two_term_root(f0, g0, p1, q1, a1, w1, p2, q2, a2, w2, nd, theta_max):
     """vertex_segment_contact with both fingers turning (w1 = +-1, w2 = +-2).
 
@@ -1067,10 +1068,10 @@ def two_term_root(f0, g0, p1, q1, a1, w1, p2, q2, a2, w2, nd, theta_max):
     return UNSURE, 0.0
 
 
-@njit(cache=True)
-def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=None):
+@entry
+def resolve_collisions(ys, finger, w, fingers, collision, settled, handled):
     """Apply finger_collision to solved finger fields in place; returns the number of points
-    where a finger's configuration changed (0 when the effect is off: None, compiled out).
+    where a finger's configuration changed (0 when the effect is off).
 
     Only points whose fingers cross in their final configurations are re-run: elsewhere the
     fingers are taken not to have met on the way (model-notes D14). The answers are the
@@ -1080,12 +1081,14 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
     The meeting depends only on the two settled configurations (and the links and the palm),
     and is unchanged when the fingers swap sides (the predicate is exactly mirror-symmetric):
     a point whose mirror point, left neighbour, or memo entry (the sweep's `settled`, a
-    records.SettledFingers; None elsewhere) has the same configurations takes its answer.
-    With `settled`, the settled fingers' polylines come from their link vectors, without
-    trigonometry (same bits as `finger_polyline`). `handled`: points already resolved on the
-    fingers' own paths (a finger took the tip path, field.tip_path_collisions), left alone."""
-    if collision is None:
+    records.SettledFingers; records.no_settled_fingers() elsewhere) has the same configurations
+    takes its answer. Where `settled.known`, the settled fingers' polylines come from their link
+    vectors, without trigonometry (same bits as `finger_polyline`). `handled` (y, x), or empty:
+    points already resolved on the fingers' own paths (a finger took the tip path,
+    field.tip_path_collisions), left alone."""
+    if not collision.on:
         return 0
+    any_handled = handled.shape[0] > 0
     th = finger.theta2_min
     starts_crossed, sym_node, sym_meeting = symmetric_meeting(finger, w, collision)
     if starts_crossed:  # the open fingers touch: no point's fingers are re-run (as reference)
@@ -1100,7 +1103,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
             meet[i] = -1.0
             if fingers.mode[0, j, i] < 0 or fingers.mode[1, j, i] < 0:  # infeasible
                 continue
-            if handled is not None and handled[j, i]:
+            if any_handled and handled[j, i]:
                 continue
             t1l, t2l, t1r, t2r = settled_angles(fingers, j, i)
             m = nx - 1 - i
@@ -1113,7 +1116,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
                     and fingers.t1[1, j, i - 1] == t1r and fingers.t2[1, j, i - 1] == t2r:
                 meet[i] = meet[i - 1]  # the same fingers as the left neighbour
             else:
-                if settled is not None and settled.memo_read:
+                if settled.memo_read:
                     memo = settled.memo
                     if memo[j, i, 0] == t1l and memo[j, i, 1] == t2l and memo[j, i, 2] == t1r \
                             and memo[j, i, 3] == t2r:
@@ -1123,7 +1126,7 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
                 for s in range(2):
                     t1 = t1l if s == 0 else t1r
                     t2 = t2l if s == 0 else t2r
-                    if settled is None:
+                    if not settled.known:
                         l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
                     else:
                         lk = settled.links
@@ -1133,9 +1136,9 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
                     settle_links(cache, s, t1, t2, l1c, l1s, l2c, l2s)
                 meet[i] = meeting_of(t1l, t2l, t1r, t2r, finger, w, collision, sym_node,
                                      sym_meeting, work,
-                                     fingers_cross(settled_polyline(0, w, cache),
-                                                   settled_polyline(1, w, cache)))
-            if settled is not None and settled.memo_write:
+                                     fingers_cross(settled_polyline(LEFT, w, cache),
+                                                   settled_polyline(RIGHT, w, cache)))
+            if settled.memo_write:
                 memo = settled.memo
                 memo[j, i, 0] = t1l
                 memo[j, i, 1] = t2l
@@ -1148,16 +1151,16 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled=None, handled=
     return n_changed
 
 
-@njit(cache=True)
+@entry
 def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, k1r, k2r):
     """finger_collision at one part position, anywhere (no map around it): (changed, left,
     right), each side (mode, t1, t2, k1, k2). The reference's answer (`meeting_progress` at a
     point whose settled fingers cross, model-notes D14), found as a map finds it but with the
     symmetric closing as the first phase of the contact search (`meeting_at`). Unchanged when
-    the effect is off (None)."""
+    the effect is off."""
     left = (mode_l, t1l, t2l, k1l, k2l)
     right = (mode_r, t1r, t2r, k1r, k2r)
-    if collision is None:
+    if not collision.on:
         return False, left, right
     if mode_l < 0 or mode_r < 0:  # the part overlaps a finger's joint: infeasible
         return False, left, right
@@ -1166,7 +1169,7 @@ def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, 
                         left, right)
 
 
-@njit(cache=True)
+@inner
 def stopped_pair(p, finger, left, right):
     """(changed, left, right) of both fingers, each (mode, t1, t2, k1, k2), stopped at the
     meeting p (-1: they do not meet, unchanged)."""
@@ -1180,7 +1183,7 @@ def stopped_pair(p, finger, left, right):
     return cl or cr, (ml, a1l, a2l, b1l, b2l), (mr, a1r, a2r, b1r, b2r)
 
 
-@njit(cache=True)
+@inner
 def settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work):
     """settled_fingers_cross, the settled links kept in work's cache (`settle_links`)."""
     cache = work[SETTLED:SETTLED + 12]
@@ -1189,23 +1192,30 @@ def settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work):
         t2 = t2l if s == 0 else t2r
         l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
         settle_links(cache, s, t1, t2, l1c, l1s, l2c, l2s)
-    return fingers_cross(settled_polyline(0, w, cache), settled_polyline(1, w, cache))
+    return fingers_cross(settled_polyline(LEFT, w, cache), settled_polyline(RIGHT, w, cache))
 
 
-@njit(cache=True)
+@entry
 def slide_context(finger, w, collision):
     """What `collide_near` keeps between the positions of one map's slides: the symmetric
     closing (`symmetric_meeting`) and a scratch of WORK_SIZE whose hint carries over from one
-    position to the next (a slide's positions are near each other). None when the effect is
-    off."""
-    if collision is None:
-        return None
+    position to the next (a slide's positions are near each other): (True, symmetric closing,
+    scratch). Unused when the effect is off."""
     work = np.empty(WORK_SIZE)
+    if not collision.on:
+        return True, (True, 0.0, -1.0), work
     work[HINT] = 5
-    return symmetric_meeting(finger, w, collision), work
+    return True, symmetric_meeting(finger, w, collision), work
 
 
-@njit(cache=True)
+@entry
+def no_slide_context():
+    """The context of a position evaluated on its own (`collide`, not `collide_near`): its
+    first entry False, the rest of slide_context's types."""
+    return False, (True, 0.0, -1.0), np.empty(0)
+
+
+@entry
 def collide_near(finger, w, collision, context, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r,
                  k1r, k2r):
     """collide for one of many positions of a map (`context` from slide_context): the meeting
@@ -1213,9 +1223,9 @@ def collide_near(finger, w, collision, context, mode_l, t1l, t2l, k1l, k2l, mode
     closing, then the first contact after it), the reference's answer as collide's."""
     left = (mode_l, t1l, t2l, k1l, k2l)
     right = (mode_r, t1r, t2r, k1r, k2r)
-    if collision is None or mode_l < 0 or mode_r < 0:
+    if not collision.on or mode_l < 0 or mode_r < 0:
         return False, left, right
-    (starts_crossed, sym_node, sym_meeting), work = context
+    _, (starts_crossed, sym_node, sym_meeting), work = context
     if starts_crossed:  # the open fingers touch: nothing is re-run (as the reference)
         return False, left, right
     crossed = settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work)
@@ -1223,7 +1233,7 @@ def collide_near(finger, w, collision, context, mode_l, t1l, t2l, k1l, k2l, mode
                                    sym_meeting, work, crossed), finger, left, right)
 
 
-@njit(cache=True)
+@inner
 def meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work):
     """The meeting of one point, -1 if its settled fingers do not cross or do not meet on the
     way: the reference's bits (`meeting_progress`), predicted from the first contact from the
@@ -1238,7 +1248,7 @@ def meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work):
     return meeting_progress(t1l, t2l, t1r, t2r, finger, w, collision)
 
 
-@njit(cache=True)
+@inner
 def meeting_of(t1l, t2l, t1r, t2r, finger, w, collision, sym_node, sym_meeting, work,
                crossed):
     """The reference's meeting of one point (-1: the fingers are left as they settled)."""

@@ -34,7 +34,9 @@ Nothing here raises or returns NaN/inf: overflow of a pose's capacity is reporte
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from .jit import entry, inner
 
 N_PARAMS = 5                      # w, l1, l2, r1, r2
 X, Y = 0, 1
@@ -60,7 +62,7 @@ _SPLITTER = 134217729.0           # 2^27 + 1, Dekker's split
 # ---------------------------------------------------------------------------------------------
 # Exact orientation
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def _two_sum(a, b):
     s = a + b
     bv = s - a
@@ -68,7 +70,7 @@ def _two_sum(a, b):
     return s, (a - av) + (b - bv)
 
 
-@njit(cache=True)
+@inner
 def _two_product(a, b):
     p = a * b
     c = _SPLITTER * a
@@ -81,7 +83,7 @@ def _two_product(a, b):
     return p, err
 
 
-@njit(cache=True)
+@inner
 def _grow(expansion, length, value):
     """Add `value` to a nonoverlapping expansion in place (Shewchuk's Grow-Expansion)."""
     q = value
@@ -92,10 +94,10 @@ def _grow(expansion, length, value):
     return length + 1
 
 
-@njit(cache=True)
+@inner
 def _orient_exact(ax, ay, bx, by, cx, cy, expansion):
     """Sign of (b - a) x (c - a), exactly: the sum of six exact products."""
-    n = 0
+    n = np.int64(0)  # (not a Python 0: records.LEFT)
     for u, v, s in ((bx, cy, 1.0), (bx, ay, -1.0), (ax, cy, -1.0),
                     (by, cx, -1.0), (by, ax, 1.0), (ay, cx, 1.0)):
         p, e = _two_product(u, v)
@@ -110,7 +112,7 @@ def _orient_exact(ax, ay, bx, by, cx, cy, expansion):
     return 0
 
 
-@njit(cache=True)
+@entry
 def orient(ax, ay, bx, by, cx, cy, expansion):
     """Exact sign of the turn a -> b -> c: +1 left (CCW), -1 right, 0 collinear.
 
@@ -129,7 +131,7 @@ def orient(ax, ay, bx, by, cx, cy, expansion):
 # ---------------------------------------------------------------------------------------------
 # Hull of a point list (rows of a float buffer with X, Y columns)
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def _lex_less(buf, i, j):
     if buf[i, X] < buf[j, X]:
         return True
@@ -138,28 +140,53 @@ def _lex_less(buf, i, j):
     return buf[i, Y] < buf[j, Y]
 
 
-@njit(cache=True)
+@inner
 def _sort_rows(buf, order, n):
-    """Indices of the first n rows in (x, y) order: insertion sort for the usual handful of rows,
-    two stable merge sorts (by y, then by x) for the thousands a merge of many chunks brings."""
-    if n > 32:
-        by_y = np.argsort(buf[:n, Y], kind="mergesort")
-        by_x = np.argsort(buf[:n, X][by_y], kind="mergesort")
-        for i in range(n):
-            order[i] = by_y[by_x[i]]
-        return
+    """Indices of the first n rows in (x, y) order, rows of equal (x, y) in index order:
+    insertion sort for the usual handful of rows, a bottom-up merge sort (stable) for the
+    thousands a merge of many chunks brings. (Not np.argsort: its merge sort compiles for
+    seconds, per array layout.)"""
     for i in range(n):
         order[i] = i
-    for i in range(1, n):
-        k = order[i]
-        j = i - 1
-        while j >= 0 and _lex_less(buf, k, order[j]):
-            order[j + 1] = order[j]
-            j -= 1
-        order[j + 1] = k
+    if n <= 32:
+        for i in range(1, n):
+            k = order[i]
+            j = i - 1
+            while j >= 0 and _lex_less(buf, k, order[j]):
+                order[j + 1] = order[j]
+                j -= 1
+            order[j + 1] = k
+        return
+    src = order[:n]
+    dst = np.empty(n, dtype=np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j, k = lo, mid, lo
+            while i < mid and j < hi:
+                if _lex_less(buf, src[j], src[i]):  # strictly less: ties keep index order
+                    dst[k] = src[j]
+                    j += 1
+                else:
+                    dst[k] = src[i]
+                    i += 1
+                k += 1
+            while i < mid:
+                dst[k] = src[i]
+                i += 1
+                k += 1
+            while j < hi:
+                dst[k] = src[j]
+                j += 1
+                k += 1
+        src, dst = dst, src
+        width *= 2
+    order[:n] = src
 
 
-@njit(cache=True)
+@inner
 def _monotone_chain(ux, uy, n, chain, expansion):
     """Andrew's monotone chain on n distinct points sorted by (x, y).
 
@@ -186,7 +213,7 @@ def _monotone_chain(ux, uy, n, chain, expansion):
     return k - 1   # the last index repeats the first
 
 
-@njit(cache=True)
+@inner
 def _canonical_start(ux, uy, chain, nv):
     """Position in the chain of the lowest, then leftmost, vertex."""
     best = 0
@@ -197,7 +224,7 @@ def _canonical_start(ux, uy, chain, nv):
     return best
 
 
-@njit(cache=True)
+@entry
 def convex_hull(xs, ys):
     """Exact convex hull of n points: vertices CCW from the lowest-then-leftmost one.
 
@@ -205,7 +232,7 @@ def convex_hull(xs, ys):
     0 for an empty set. Non-finite points are ignored. Returns (hx, hy)."""
     n = xs.shape[0]
     buf = np.empty((n, 2))
-    m = 0
+    m = np.int64(0)
     for i in range(n):
         if math.isfinite(xs[i]) and math.isfinite(ys[i]):
             buf[m, X] = xs[i] + 0.0   # + 0.0 turns -0.0 into 0.0: one bit pattern per point
@@ -215,7 +242,7 @@ def convex_hull(xs, ys):
     _sort_rows(buf, order, m)
     ux = np.empty(m)
     uy = np.empty(m)
-    u = 0
+    u = np.int64(0)
     for i in range(m):
         k = order[i]
         if u > 0 and buf[k, X] == ux[u - 1] and buf[k, Y] == uy[u - 1]:
@@ -236,7 +263,7 @@ def convex_hull(xs, ys):
     return hx, hy
 
 
-@njit(cache=True)
+@entry
 def inscribed_radius(hx, hy, nv):
     """Ferrari-Canny epsilon of a CCW hull: least distance from the origin to an edge if the
     origin is strictly inside (by INSIDE_REL of the largest vertex norm), else 0."""
@@ -260,7 +287,7 @@ def inscribed_radius(hx, hy, nv):
 # ---------------------------------------------------------------------------------------------
 # Per-pose reduction
 # ---------------------------------------------------------------------------------------------
-@njit(cache=True)
+@inner
 def _segment_distance(px, py, ax, ay, bx, by):
     abx, aby = bx - ax, by - ay
     den = abx * abx + aby * aby
@@ -270,7 +297,7 @@ def _segment_distance(px, py, ax, ay, bx, by):
     return math.hypot(px - (ax + s * abx), py - (ay + s * aby))
 
 
-@njit(cache=True)
+@inner
 def _is_near(row, nh, px, py):
     """Could the point (not outside the hull) coincide with a vertex of this or any larger hull?"""
     scale = 0.0
@@ -284,7 +311,7 @@ def _is_near(row, nh, px, py):
     return dist <= NEAR_KEEP_REL * math.hypot(px, py) + ROUNDOFF_ALLOWANCE * scale
 
 
-@njit(cache=True)
+@inner
 def _merge_aggregate(dst, dst_first, k, src, src_first, s):
     """Combine the parameter ranges of src row s into dst row k (same point)."""
     for c in range(N_PARAMS):
@@ -293,14 +320,14 @@ def _merge_aggregate(dst, dst_first, k, src, src_first, s):
     dst_first[k] = min(dst_first[k], src_first[s])
 
 
-@njit(cache=True)
+@inner
 def _rebuild(cand, cand_first, m, uniq, uniq_first, order, chain, is_vertex, expansion,
              out, out_first, cap):
     """Reduce m candidate rows to the canonical state row: merge exact duplicates, exact hull,
     keep the near points. Writes out/out_first and returns (n_hull, n_kept), or (-1, -1) if the
     result does not fit in cap rows (out untouched)."""
     _sort_rows(cand, order, m)
-    u = 0
+    u = np.int64(0)
     for i in range(m):
         k = order[i]
         if u > 0 and cand[k, X] == uniq[u - 1, X] and cand[k, Y] == uniq[u - 1, Y]:
@@ -343,7 +370,7 @@ def _rebuild(cand, cand_first, m, uniq, uniq_first, order, chain, is_vertex, exp
     return nv, k
 
 
-@njit(cache=True)
+@inner
 def _strictly_outside(row, nh, px, py, expansion):
     """True if the point is outside the hull (or the hull has fewer than 3 vertices)."""
     if nh < 3:
@@ -355,7 +382,7 @@ def _strictly_outside(row, nh, px, py, expansion):
     return False
 
 
-@njit(cache=True)
+@inner
 def _add_point(row, row_first, nh, nk, point, point_first, cand, cand_first, uniq, uniq_first,
                order, chain, is_vertex, expansion):
     """Add one point (a 1-row buffer with its parameters) to a pose's state row.
@@ -394,7 +421,7 @@ def _add_point(row, row_first, nh, nk, point, point_first, cand, cand_first, uni
                     expansion, row, row_first, cap)
 
 
-@njit(cache=True)
+@inner
 def _scratch(m):
     """Working arrays of `_rebuild` for up to m candidate rows (one set per block of poses)."""
     return (np.empty((m, N_COLS)), np.empty(m, dtype=np.int64), np.empty((m, N_COLS)),
@@ -402,14 +429,14 @@ def _scratch(m):
             np.empty(2 * m + 1, dtype=np.int64), np.empty(m, dtype=np.bool_), np.empty(16))
 
 
-@njit(cache=True)
+@inner
 def _blocks(n_items, n_blocks):
     """Contiguous pose blocks for prange (each block allocates its scratch once). n_blocks comes
     from the caller: numba.get_num_threads() inside a kernel would defeat the disk cache."""
     return max(1, min(n_items, n_blocks))
 
 
-@njit(cache=True, parallel=True)
+@entry(parallel=True)
 def reduction_add(pts, first, n_hull, n_kept, fx, fy, counts, geometry_index, params, status,
                   n_blocks):
     """Add one geometry's forces (fx[pose], fy[pose], where counts[pose]) to every pose.
@@ -449,7 +476,7 @@ def reduction_add(pts, first, n_hull, n_kept, fx, fy, counts, geometry_index, pa
                 n_kept[pose] = nk
 
 
-@njit(cache=True, parallel=True)
+@entry(parallel=True)
 def reduction_merge(pts_a, first_a, n_kept_a, pts_b, first_b, n_kept_b,
                     out, out_first, out_hull, out_kept, status, n_blocks):
     """out = merge of reductions a and b, pose by pose (the hull of the union of their points).
@@ -488,14 +515,14 @@ def reduction_merge(pts_a, first_a, n_kept_a, pts_b, first_b, n_kept_b,
                 out_kept[pose] = nk
 
 
-@njit(cache=True, parallel=True)
+@entry(parallel=True)
 def reduction_values(pts, n_hull, values):
     """values[pose] = inscribed radius of the pose's hull (MODEL 10 value of a pose)."""
     for pose in prange(pts.shape[0]):
         values[pose] = inscribed_radius(pts[pose, :, X], pts[pose, :, Y], n_hull[pose])
 
 
-@njit(cache=True)
+@entry
 def vertex_groups(row, row_first, nh, nk, group_min, group_max, group_first):
     """Per hull vertex: parameter ranges and smallest geometry index over every geometry whose
     force coincides with the vertex (exactly, or another kept point within COINCIDE_REL |v|,
@@ -515,7 +542,7 @@ def vertex_groups(row, row_first, nh, nk, group_min, group_max, group_first):
                 group_first[i] = min(group_first[i], row_first[k])
 
 
-@njit(cache=True, parallel=True)
+@entry(parallel=True)
 def reduction_parameter_ranges(pts, first, n_hull, n_kept, values, ranges, n_blocks):
     """ranges[pose, c] = max - min of parameter c over the geometries of all hull vertices of
     poses with a positive value (MODEL 10 parameter usage, before dividing by the search
@@ -545,7 +572,7 @@ def reduction_parameter_ranges(pts, first, n_hull, n_kept, values, ranges, n_blo
                 ranges[pose, c] = highest - lowest
 
 
-@njit(cache=True, parallel=True)
+@entry(parallel=True)
 def reduction_rebuild_ragged(seg_start, rows, rows_first, out_rows, out_first, out_hull,
                              out_kept, n_blocks):
     """The canonical state of every pose from all its candidate points at once (one `_rebuild`

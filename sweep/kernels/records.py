@@ -5,16 +5,24 @@ fields are read by name inside kernels at no cost, and a record can be captured 
 loop (a record nested in another record cannot, a limitation of Numba's parallel lowering, so
 records hold numbers or arrays, never other records).
 
-An *effect* that a scene may switch on (MODEL 9) is a separate argument that is either `None`
-(off) or its own parameter record. Numba compiles one specialisation per combination of argument
-types and prunes `if block is not None:` branches at compile time, so an effect that is off costs
-nothing; `cache=True` caches each specialisation on its own. The same holds for optional outputs:
-the contact-force arrays are `None` unless forces were asked for.
+An *effect* that a scene may switch on (MODEL 9) is a separate argument: its own parameter
+record, whose first field `on` says whether the effect is on. Every scene passes records of the
+same types, so one compilation of the kernels serves every scene (a branch on a loop-invariant
+flag costs nothing measurable: docs/performance.md); the kernels test `block.on` where the
+physics needs the effect. Optional outputs likewise: the contact-force arrays and the
+manipulation rows are empty arrays when they were not asked for.
 """
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+
+from .jit import entry, inner
+
+#: The fingers' indices in (finger, y, x) arrays. NumPy integers, never Python ones, as every
+#: constant a kernel passes to another kernel: Numba compiles a callee once per literal value of
+#: a Python constant argument (kernels/__init__.py).
+LEFT = np.int64(0)
+RIGHT = np.int64(1)
 
 
 class FingerModel(NamedTuple):
@@ -42,11 +50,10 @@ class SolverSettings(NamedTuple):
 
 class TipContact(NamedTuple):
     """The tip_contact effect (MODEL 9, model-notes D15): the tip and the distal joint are real
-    contacts; a finger whose tip cannot hold follows the tip on the disc, stepped by
-    `path_step` (rad of t1) and bracketed to `tol`, as the reconfiguration path."""
+    contacts; a finger whose tip cannot hold follows the tip on the disc, stepped and bracketed
+    by the reconfiguration path's accuracy settings (SolverSettings)."""
 
-    path_step: float
-    tol: float
+    on: bool
 
 
 class JointSprings(NamedTuple):
@@ -56,6 +63,7 @@ class JointSprings(NamedTuple):
     `tension` is the tendon tension of the finger being solved: the statics work per unit
     tension, so a finger's spring torque enters as K_i / tension (one block per finger)."""
 
+    on: bool
     k1: float
     k2: float
     tension: float
@@ -66,6 +74,7 @@ class FingerCollision(NamedTuple):
     a shared progress and stop where they first meet. The meeting is found by stepping the
     progress (rad of joint travel) and bracketing it to `tol`."""
 
+    on: bool
     progress_step: float
     tol: float
 
@@ -73,66 +82,40 @@ class FingerCollision(NamedTuple):
 # ---------------------------------------------------------------------------------------------
 # The effect blocks: one table, one record of blocks
 # ---------------------------------------------------------------------------------------------
-#: Each effect's kernel block (model.EFFECTS names the effect): (name, builder), the builder
+#: Each effect's kernel block (model.EFFECTS names the effect): (name, builder, off), the builder
 #: `(effects, accuracy, tension) -> block` called when the effect is on (`tension`: the tendon
-#: tension of the finger the blocks are for). The blocks one finger's solution depends on come
-#: first (FINGER_BLOCKS of them), then the map-level ones. This order is EffectBlocks'.
+#: tension of the finger the blocks are for), `off` the block of a scene without it (the same
+#: types, so the same compiled kernels). This order is EffectBlocks'.
 BLOCKS = (
     # the tip path is stepped and bracketed like the reconfiguration path (D15)
-    ("tip_contact", lambda effects, accuracy, tension: TipContact(
-        float(accuracy.reconfig_step), float(accuracy.root_tol))),
+    ("tip_contact", lambda effects, accuracy, tension: TipContact(True), TipContact(False)),
     ("joint_springs", lambda effects, accuracy, tension: JointSprings(
-        float(effects.spring_k1), float(effects.spring_k2), float(tension))),
+        True, float(effects.spring_k1), float(effects.spring_k2), float(tension)),
+     JointSprings(False, 0.0, 0.0, 1.0)),
     # the meeting progress is bracketed like a reconfiguration stop (same accuracy settings)
     ("finger_collision", lambda effects, accuracy, tension: FingerCollision(
-        float(accuracy.reconfig_step), float(accuracy.root_tol))),
+        True, float(accuracy.reconfig_step), float(accuracy.root_tol)),
+     FingerCollision(False, 0.0, 0.0)),
 )
-FINGER_BLOCKS = 2
 N_BLOCKS = len(BLOCKS)
-#: Argument slots of a parallel driver for the blocks (blocks_of): room for more effects.
-MAX_BLOCKS = 6
-assert N_BLOCKS <= MAX_BLOCKS
+EffectBlocks = NamedTuple("EffectBlocks", [(name, object) for name, _, _ in BLOCKS])
+EffectBlocks.__doc__ = """The parameter block of every effect a scene may switch on (MODEL 9), in
+the order of BLOCKS; a block's `on` says whether its effect is on."""
 
-EffectBlocks = NamedTuple("EffectBlocks", [(name, object) for name, _ in BLOCKS])
-EffectBlocks.__doc__ = """The parameter block of every effect a scene may switch on (MODEL 9),
-None when off, in the order of BLOCKS.
-
-Numba compiles one specialisation per combination of block types, and a kernel asks for an
-effect only through a small function taking the block as an argument and testing
-`block is None`, a test Numba resolves at compile time: an effect that is off costs nothing.
-A parallel driver cannot let its `prange` loop capture this record (it holds records or None),
-nor a block unpacked from it: the driver's serial half passes the blocks on as separate
-arguments (`*effects[:]`) to its parallel half, whose MAX_BLOCKS slots `b0=None, ...` the loop
-rebuilds the record from (`blocks_of`): a new effect needs no driver changed."""
-
-NO_EFFECTS = EffectBlocks(*(None,) * N_BLOCKS)
+NO_EFFECTS = EffectBlocks(*(off for _, _, off in BLOCKS))
 
 
 def effect_blocks(effects, accuracy, tension: float = 1.0):
-    """The EffectBlocks of a map's `model.Effects` (an effect that is off is None)."""
-    return EffectBlocks(*(build(effects, accuracy, tension) if getattr(effects, name) else None
-                          for name, build in BLOCKS))
+    """The EffectBlocks of a map's `model.Effects` (an effect that is off: its `off` block)."""
+    return EffectBlocks(*(build(effects, accuracy, tension) if getattr(effects, name) else off
+                          for name, build, off in BLOCKS))
 
 
-@njit(cache=True)
-def blocks_of(b0=None, b1=None, b2=None, b3=None, b4=None, b5=None):
-    """EffectBlocks from the MAX_BLOCKS slots of a parallel driver (the first N_BLOCKS)."""
-    return EffectBlocks(*(b0, b1, b2, b3, b4, b5)[:N_BLOCKS])
-
-
-@njit(cache=True)
-def finger_blocks(effects):
-    """The blocks one finger's solution depends on (the first FINGER_BLOCKS; the map-level ones
-    None): the finger kernels compiled for a scene serve every scene that differs only in
-    map-level blocks (finger_collision), which saves compiling them again."""
-    return blocks_of(*effects[:FINGER_BLOCKS])
-
-
-_SPRINGS = [name for name, _ in BLOCKS].index("joint_springs")
+_SPRINGS = [name for name, _, _ in BLOCKS].index("joint_springs")
 _AFTER_SPRINGS = _SPRINGS + 1   # Numba slices tuples by constants only
 
 
-@njit(cache=True)
+@inner
 def with_joint_springs(effects, springs):
     """`effects` with its joint_springs block replaced by `springs`."""
     return EffectBlocks(*(effects[:_SPRINGS] + (springs,) + effects[_AFTER_SPRINGS:]))
@@ -146,8 +129,10 @@ class SettledFingers(NamedTuple):
     the settled angles (t1 left, t2 left, t1 right, t2 right) last met at this width by the
     same thread, with their meeting (cells of one geometry group share most settled fingers),
     read if `memo_read` (it holds this cell's links) and written if `memo_write` (the next
-    cell has the same links)."""
+    cell has the same links). `known` False: none of this is known (`no_settled_fingers`), the
+    links are computed from the angles."""
 
+    known: bool
     links: np.ndarray
     left_start: int
     left_stride: int
@@ -156,6 +141,13 @@ class SettledFingers(NamedTuple):
     memo: np.ndarray
     memo_read: bool
     memo_write: bool
+
+
+@entry
+def no_settled_fingers():
+    """The SettledFingers of a map without a shared field: nothing known."""
+    return SettledFingers(False, np.empty((4, 0, 0)), 0, 0, 0, 0, np.empty((0, 0, 5)), False,
+                          False)
 
 
 class Hand(NamedTuple):
@@ -259,14 +251,29 @@ class ManipulationOut(NamedTuple):
                               # map's grid when asked for (pictures), else (0, 0, 0)
 
 
-@njit(cache=True)
+def no_manipulation():
+    """The ManipulationOut of a sweep without the manipulation metric: no rows (the same types
+    as one with rows, so the same compiled kernels)."""
+    return ManipulationOut(np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0)),
+                           np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=np.bool_),
+                           np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64),
+                           np.zeros(0), np.zeros((0, 0, 0)))
+
+
+@inner
+def wants_manipulation(manip):
+    """Whether the manipulation metric is asked for: `manip` has a row per cell."""
+    return manip.n_entries.shape[0] > 0
+
+
+@entry
 def new_finger_arrays(n_fingers, ny, nx):
     shape = (n_fingers, ny, nx)
     return FingerArrays(np.empty(shape, dtype=np.int8), np.empty(shape), np.empty(shape),
                         np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.bool_))
 
 
-@njit(cache=True)
+@entry
 def new_outcome_arrays(ny, nx):
     shape = (ny, nx)
     return OutcomeArrays(np.empty(shape), np.empty(shape, dtype=np.int8),
@@ -276,8 +283,21 @@ def new_outcome_arrays(ny, nx):
                          np.empty(shape, dtype=np.int8), np.empty(shape, dtype=np.int64))
 
 
-@njit(cache=True)
+@entry
 def new_force_arrays(ny, nx):
+    """ForceArrays of a map of ny x nx points; of 0 x 0 where forces were not asked for."""
     shape = (2, ny, nx)
     return ForceArrays(np.empty(shape), np.empty(shape), np.empty(shape), np.empty(shape),
                        np.empty(shape), np.empty(shape, dtype=np.bool_), np.zeros((ny, nx)))
+
+
+@entry
+def no_force_arrays():
+    """The ForceArrays of a map whose contact forces are not asked for."""
+    return new_force_arrays(np.int64(0), np.int64(0))
+
+
+@inner
+def with_forces(forces):
+    """Whether a map's contact forces are asked for: its ForceArrays have room for them."""
+    return forces.geometric_cage_score.size > 0

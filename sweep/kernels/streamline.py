@@ -16,8 +16,10 @@ had left more than MAX_REVISITS times (circling), or the step budget is spent.
 """
 import math
 
-from numba import njit
+import numpy as np
 
+
+from .jit import entry, inner
 from ..model import (
     END_CAGED,
     END_EJECTION,
@@ -44,7 +46,7 @@ _DI = (1, 1, 0, -1, -1, -1, 0, 1)
 _DJ = (0, 1, 1, 1, 0, -1, -1, -1)
 
 
-@njit(cache=True)
+@entry
 def node_gradient(energy, point_class, i, j):
     """dE/di, dE/dj (per grid step) at a feasible grid point from its feasible neighbours."""
     ny, nx = energy.shape
@@ -85,7 +87,7 @@ def node_gradient(energy, point_class, i, j):
     return gi, gj
 
 
-@njit(cache=True)
+@inner
 def interpolated_gradient(energy, point_class, fi, fj):
     """Bilinear interpolation of the node gradients at (fi, fj) in grid units; (0, 0, False)
     when no corner of the cell is feasible."""
@@ -116,7 +118,7 @@ def interpolated_gradient(energy, point_class, fi, fj):
     return gi / wsum, gj / wsum, True
 
 
-@njit(cache=True)
+@inner
 def has_lower_neighbour(energy, point_class, i, j):
     ny, nx = energy.shape
     here = energy[j, i]
@@ -130,7 +132,7 @@ def has_lower_neighbour(energy, point_class, i, j):
     return False
 
 
-@njit(cache=True)
+@inner
 def descent_direction(energy, point_class, fi, fj):
     """Unit vector along -grad E at (fi, fj), or (0, 0, False) where the gradient vanishes."""
     gi, gj, ok = interpolated_gradient(energy, point_class, fi, fj)
@@ -140,13 +142,13 @@ def descent_direction(energy, point_class, fi, fj):
     return -gi / norm, -gj / norm, True
 
 
-@njit(cache=True)
+@entry
 def streamline_walk(energy, point_class, equilibrium, caged, i0, j0, step, max_steps, visited,
                     path):
     """(end_state, flat end index, points in `path`) of the streamline started at grid point
     (j0, i0). `visited[p]` holds the start's flat index once the streamline has been near grid
-    point p. `path` is None, or an array (max_steps + 1, 2) that receives the positions (i, j)
-    in grid units (the picture draws them)."""
+    point p. `path`: an array (max_steps + 1, 2) that receives the positions (i, j) in grid
+    units (the picture draws them), or (0, 2): not recorded."""
     ny, nx = energy.shape
     fi = float(i0)
     fj = float(j0)
@@ -156,8 +158,9 @@ def streamline_walk(energy, point_class, equilibrium, caged, i0, j0, step, max_s
     revisits = 0
     stay = 0
     n = 0
+    recorded = path.shape[0] > 0
     for _ in range(max_steps):
-        if path is not None:
+        if recorded:
             path[n, 0] = fi
             path[n, 1] = fj
         n += 1
@@ -198,20 +201,20 @@ def streamline_walk(energy, point_class, equilibrium, caged, i0, j0, step, max_s
     return END_STALLED, last, n
 
 
-@njit(cache=True)
+@inner
 def streamline_end(outs, i0, j0, step, max_steps, visited):
     """(end_state, flat end index) of the streamline started at grid point (j0, i0)."""
     state, last, _ = streamline_walk(outs.energy, outs.point_class, outs.equilibrium, outs.caged,
-                                     i0, j0, step, max_steps, visited, None)
+                                     i0, j0, step, max_steps, visited, np.empty((0, 2)))
     return state, last
 
 
-@njit(cache=True)
+@entry
 def max_streamline_steps(ny, nx, step):
     return int(TRAVERSALS * (nx + ny) / step) + 1
 
 
-@njit(cache=True)
+@entry
 def streamline_ends(outs, h, stack, step):
     """end_state and end_index of the streamline from every point of P_j (integrator step
     `step` in grid steps); returns Lambda. `h` is unused (same signature as

@@ -34,9 +34,9 @@ from ..compute.layout import kernel_records
 from ..kernels.records import Hand
 from ..kernels.streamline import max_streamline_steps, streamline_walk
 from ..kernels.field import (
-    SLIDE_REJOINS, downhill_neighbour, max_slide_points, slide_successor,
+    SLIDE_REJOINS, downhill_neighbour, max_slide_points, new_memo, slide_successor,
 )
-from ..kernels.hand import finger_polyline
+from ..kernels.hand import finger_polyline, no_slide_context
 from ..model import (EJECT, END_CAGED, INFEASIBLE, REACHED, STREAMLINE_STEP, UNREACHED,
                      VERTEX_POINT)
 from ..outputs import write_bytes_atomic
@@ -106,7 +106,8 @@ def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
         q = downhill_neighbour(energy, point_class, i, j, h)
         if q < 0:
             q, kind, n = slide_successor(energy, point_class, equilibrium, x, y, i, j, finger,
-                                         solver, blocks, hand, buf)
+                                         solver, blocks, hand, buf, new_memo(0, False),
+                                         no_slide_context())
             points.extend(map(tuple, buf[1:n]))
             if kind != SLIDE_REJOINS:
                 p = int(q)

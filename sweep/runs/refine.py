@@ -60,6 +60,7 @@ import numpy as np
 
 from .. import __version__
 from ..compute.batch import caging_areas, cell_keys, numba_threads
+from ..compute.warm import ensure_compiled
 from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
 
@@ -446,6 +447,8 @@ def _run_level(scene, designs, parts, keys, h, label, work, progress):
             continue
         got.update(zip(map(tuple, bk.tolist()), found[0].tolist()))
         seconds += found[1]
+    if todo:  # (before the progress bar: its rate and ETA are the computation's alone)
+        ensure_compiled()
     bar = _progress(len(keys), len(keys) - sum(len(batches[b]) for b in todo),
                     f"refine h={h:g}", progress)
     try:

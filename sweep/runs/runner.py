@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__, grid
-from ..compute import batch, maps
+from ..compute import batch, maps, warm
 from ..compute.batch import numba_threads
 from ..storage import mapfile
 from ..config.chunks import chunk_ranges, missing_ranges, sub_ranges
@@ -160,6 +160,8 @@ def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bo
     todo = [r for gap in missing_ranges(start, stop, [b.range for b in blocks])
             for r in sub_ranges(gap[0], gap[1], size, scene.group_size)]
     done_maps = (stop - start - sum(b - a for a, b in todo)) * n_w
+    if todo:  # (before the progress bar: its rate and ETA are the computation's alone)
+        warm.ensure_compiled()
     computed = 0
     t0 = time.perf_counter()
     bar = _progress_bar(total=(stop - start) * n_w, initial=done_maps, desc=desc or scene.name,

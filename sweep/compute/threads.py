@@ -1,0 +1,51 @@
+"""The compute layer's parallel loops: ranges of rows or cells on several threads.
+
+The kernels' drivers (`kernels/field.py`: `finger_rows`, `summarize_cells`) release the GIL and
+work on a range `first .. last - 1`; `over_ranges` runs consecutive ranges on Numba's thread
+count (`numba.get_num_threads()`, set by `batch.numba_threads`), each thread taking the next
+range as it finishes one (ranges differ in cost: the part's reach, trajectories). Each range
+writes only its own rows, so the results do not depend on the split or the thread count.
+
+Python threads rather than a `prange` loop: a parallel loop compiles its whole call tree twice
+more (its body as a separate function, and once with an unsigned index), a third of the cold
+compilation of the kernels (docs/performance.md).
+"""
+from __future__ import annotations
+
+import concurrent.futures
+from typing import Callable
+
+import numba
+
+#: Ranges per thread: enough for the threads to finish together, few enough that a range's
+#: set-up (a shared finger field, a memo of meetings) is amortised.
+RANGES_PER_THREAD = 4
+
+
+def split(n: int, parts: int) -> list[tuple[int, int]]:
+    """`parts` consecutive ranges (first, last) covering 0 .. n - 1, as equal as they come."""
+    parts = max(1, min(parts, n))
+    bounds = [n * k // parts for k in range(parts + 1)]
+    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+
+def over_ranges(n: int, task: Callable[[int, int], None],
+                ranges_per_thread: int = RANGES_PER_THREAD) -> None:
+    """Call `task(first, last)` for consecutive ranges covering 0 .. n - 1, on Numba's thread
+    count of threads (in this thread when it is 1). An exception in a task is raised here once
+    every task has stopped."""
+    threads = numba.get_num_threads()
+    ranges = split(n, threads * ranges_per_thread)
+    if threads == 1 or len(ranges) <= 1:
+        for first, last in ranges:
+            task(first, last)
+        return
+    with concurrent.futures.ThreadPoolExecutor(max_workers=threads) as pool:
+        futures = [pool.submit(task, first, last) for first, last in ranges]
+        try:
+            for future in futures:
+                future.result()
+        except BaseException:
+            for future in futures:
+                future.cancel()  # (ranges running finish; the others do not start)
+            raise

@@ -1,0 +1,117 @@
+"""The kernels compiled once, before the first computation needs them.
+
+Numba compiles a kernel the first time it is called and caches it on disk (kernels/__init__.py:
+the cache is keyed by the kernel sources). One compilation serves every scene: effects and
+optional outputs are run-time switches of one kernel set. On a machine where that set is not in
+the cache yet, `ensure_compiled` says so in one line and compiles every kernel a command calls,
+through the same public functions and with the same argument types as a real run (a kernel
+compiles once per argument types): the maps' kernels here, the manipulation metric's hull
+reductions in a second process at the same time (they share no kernel of different argument
+types with the maps' ones: `kernels/hull.py`). It then leaves a marker in the cache, so the next
+start only loads (about a second).
+
+    python -m sweep.compute.warm [maps|reductions]     # what `ensure_compiled` runs
+"""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from .. import kernels
+from ..model import Accuracy, Command, Design, Effects, Grid, Limits, Part
+
+#: Cold compilation of every kernel, on the reference machine (docs/performance.md, "Cold
+#: compilation"): what the one line says to expect.
+COLD_SECONDS = 60
+MARKER = "compiled"
+
+
+def is_compiled() -> bool:
+    """Whether this kernel set is in the cache (ensure_compiled ran to its end)."""
+    return (kernels.cache_directory() / MARKER).exists()
+
+
+def compile_maps() -> None:
+    """Every kernel of maps and sweeps: one map (with and without forces), the sweep's cells
+    (summaries, and with the manipulation metric), one map the sweep's way, the pictures'
+    trajectories."""
+    from ..kernels.field import (downhill_neighbour, max_slide_points, new_memo,
+                                 slide_successor)
+    from ..kernels.hand import no_slide_context
+    from ..kernels.records import Hand
+    from ..kernels.streamline import max_streamline_steps, streamline_walk
+    from .batch import cell_map_fields, manipulation_cells, summarize_cells
+    from .layout import kernel_records
+    from .maps import compute_map
+
+    design, part, h = Design(1.2, 0.8, 0.12, 0.1, 0.8), Part(0.4, 0.4), 0.4
+    cell = np.array([[1.2, 0.8, 0.12, 0.1, 0.4, 0.4]])
+    widths = np.array([0.0, 0.8])
+    for forces in (False, True):
+        m = compute_map(design, part, grid=Grid(h=h), forces=forces)
+    summarize_cells(cell, widths, Command(), h, Limits(), Accuracy())
+    manipulation_cells(cell, widths, h, Limits(), Accuracy(), Effects(), np.array([0]),
+                       np.array([[0, 0]]), np.array([8]))
+    cell_map_fields(cell[0], 0.8, Command(), h, Limits(), Accuracy(), forces=True)
+    # the pictures' kernels (sweep/report/plot.py), with its argument types
+    energy = np.asarray(m.fields["energy"], dtype=np.float64)
+    point_class = np.asarray(m.fields["point_class"])
+    equilibrium = np.asarray(m.fields["equilibrium"], dtype=bool)
+    caged = np.asarray(m.fields["caging_score"]) > 0.0
+    ny, nx = energy.shape
+    downhill_neighbour(energy, point_class, 0, 0, h)
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
+    slide_successor(energy, point_class, equilibrium, m.x, m.y, 0, 0, finger, solver, blocks,
+                    Hand(0.8, 1.0, 1.0, h), np.empty((max_slide_points(ny, nx), 2)),
+                    new_memo(0, False), no_slide_context())
+    steps = max_streamline_steps(ny, nx, 0.5)
+    streamline_walk(energy, point_class, equilibrium, caged, 0, 0, 0.5, steps,
+                    np.full(energy.size, -1, dtype=np.int64), np.empty((steps + 1, 2)))
+
+
+def compile_reductions() -> None:
+    """The manipulation metric's hull reductions (the sweep's chunks and the merge)."""
+    from .manipulation import PartReduction
+
+    rng = np.random.default_rng(0)
+    n = 40
+    red = PartReduction.from_entries(rng.integers(0, 3, n), rng.normal(size=n),
+                                     rng.normal(size=n), np.arange(n), rng.uniform(size=(n, 5)))
+    red.merge(red).values_and_ranges()
+
+
+def ensure_compiled(say=None) -> None:
+    """Compile every kernel unless this kernel set is in the cache already (module docstring);
+    `say` gets the one line (default: standard error)."""
+    if is_compiled():
+        return
+    message = f"compiling kernels (first run only, about {COLD_SECONDS} s)"
+    if say is None:
+        print(message, file=sys.stderr, flush=True)
+    else:
+        say(message)
+    started = time.perf_counter()
+    second = subprocess.Popen([sys.executable, "-m", __name__, "reductions"], env=os.environ,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        compile_maps()
+    finally:
+        failed = second.wait() != 0
+    if failed:  # (compiled here instead; what the other process cached stays valid)
+        compile_reductions()
+    kernels.cache_directory().mkdir(parents=True, exist_ok=True)
+    (kernels.cache_directory() / MARKER).write_text(f"{time.perf_counter() - started:.1f} s\n")
+
+
+def main(argv: list[str]) -> int:
+    for name in argv or ["maps", "reductions"]:
+        {"maps": compile_maps, "reductions": compile_reductions}[name]()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
