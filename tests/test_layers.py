@@ -277,3 +277,53 @@ def test_the_checker_catches_an_inner_kernel_used_outside(tmp_path):
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "t.py").write_text("from sweep.kernels import field as k\nk.f()\n")
     assert inner_kernels_used_outside(tmp_path) == ["tests/t.py uses the inner kernel field.f"]
+
+
+# ---------------------------------------------------------------------------------------------
+# Every package the code imports is a run-time dependency (`pip install .` is enough)
+# ---------------------------------------------------------------------------------------------
+#: Import name -> distribution name, where they differ.
+DISTRIBUTIONS = {"yaml": "pyyaml"}
+
+
+def third_party_imports(root: Path = PACKAGE) -> set[str]:
+    """Top-level names of the modules outside the standard library and the package that any
+    module of `root` imports (at the top of a file or inside a function)."""
+    import sys
+
+    found = set()
+    for path in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and not node.level and node.module:
+                names = [node.module]
+            else:
+                continue
+            for name in names:
+                top = name.split(".")[0]
+                if top != root.name and top not in sys.stdlib_module_names:
+                    found.add(top)
+    return found
+
+
+def runtime_dependencies(pyproject: Path = PACKAGE.parent / "pyproject.toml") -> set[str]:
+    import re
+    import tomllib
+
+    deps = tomllib.loads(pyproject.read_text())["project"]["dependencies"]
+    return {re.split(r"[<>=!~ \[;]", d, maxsplit=1)[0].lower() for d in deps}
+
+
+def test_every_imported_package_is_a_runtime_dependency():
+    missing = {DISTRIBUTIONS.get(name, name) for name in third_party_imports()} \
+        - runtime_dependencies()
+    assert not missing, f"imported by sweep/ but not in [project] dependencies: {missing}"
+
+
+def test_the_dependency_check_sees_an_import_inside_a_function(tmp_path):
+    pkg = tmp_path / "sweep"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("import os\nimport numpy as np\n"
+                              "def f():\n    import xarray.core\n    from yaml import x\n")
+    assert third_party_imports(pkg) == {"numpy", "xarray", "yaml"}
