@@ -88,9 +88,12 @@ def _refined_header(view, designs, pick, pick_part):
     ref = view.refine
     role, value, error = (pick(ref[k]) for k in ("refine_role", "refined_caging_area",
                                                   "refined_error"))
+    widened = "refine_widenings" in ref
     out = part_outcome(equal_r_classes(designs), role, value, error,
                        pick_part(ref["refine_status"]), pick_part(ref["refine_finest_h"]),
-                       pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]))
+                       pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]),
+                       pick_part(ref["refine_widenings"]) if widened else None,
+                       pick_part(ref["refine_n_readmitted"]) if widened else 0)
     order = ranking(role, value, pick(view.variables["caging_area"]).astype(np.float64))
     if out.status == "not_refined":
         return ["  refinement: not refined (no design cages at the screening spacing)"], \
@@ -101,8 +104,7 @@ def _refined_header(view, designs, pick, pick_part):
     lines = [f"  refinement: {out.status.replace('_', '-')} at h = {out.finest_h:g}; best "
              f"{_design_text(designs, b)}{twins}, refined caging area {value[b]:.6g} "
              f"(error {error[b]:.2g}), lead over the runner-up {out.margin:.3g} ({rel:.2%})"
-             + ("" if out.bound_held else "; the contender bound did not hold (a design left out "
-                "could be the best: raise refine.bound)")]
+             + (f"; {out.bound_note()}" if out.bound_note() else "")]
     if not out.certified:
         lines.append(f"  near-tie set ({len(out.members)}): " + "; ".join(
             f"{_design_text(designs, d)}: {value[d]:.6g} +- {error[d]:.2g}"
