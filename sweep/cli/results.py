@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from .common import FILE, SweepCommand, UserError
+from .common import STORE, SWEEP_FILE, SweepCommand, UserError
 
 
 TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
@@ -14,7 +14,7 @@ TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejecti
 
 
 @click.command("top", cls=SweepCommand, short_help="Best designs of each part, as tables.")
-@click.argument("results", type=FILE)
+@click.argument("results", type=STORE)
 @click.option("--r", "r", type=float, default=None,
               help="Part radius (a value of the store); default: every radius.")
 @click.option("--mu", type=float, default=None,
@@ -175,7 +175,7 @@ def _print_top(view, ri, mui, n, by, ascending, command):
 
 @click.command("show", cls=SweepCommand,
                short_help="What a results store (or any sweep file) holds.")
-@click.argument("results", type=FILE)
+@click.argument("results", type=SWEEP_FILE)
 def show(results):
     """Print what a results store holds: dimensions, variables, config, effects, grid,
     provenance and timings. Shard and part files, and single maps (`sweep map`,

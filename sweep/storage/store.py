@@ -332,6 +332,26 @@ def _block_items(scene: Scene, b: Block) -> list[np.ndarray]:
     return out
 
 
+def file_kind(path: Path) -> str | None:
+    """Which sweep file `path` is, from its contents: "store", "shard" or "part" (its
+    `sweep_file_kind`), "map" (a map file, `sweep.storage.mapfile`: an energy field and its
+    design), "hdf5" (any other HDF5 file, or one too damaged to tell); None when it is not an
+    HDF5 file. OSError when it cannot be read at all."""
+    if not h5py.is_hdf5(path):
+        return None
+    kinds = {KIND_STORE: "store", KIND_SHARD: "shard", KIND_PART: "part"}
+    try:
+        with h5py.File(path, "r") as f:
+            kind = _str(f.attrs.get("sweep_file_kind", ""))
+            if kind in kinds:
+                return kinds[kind]
+            if "energy" in f and "design" in f.attrs:
+                return "map"
+    except (OSError, KeyError, ValueError):
+        pass
+    return "hdf5"
+
+
 @dataclass
 class StoreView:
     path: Path
@@ -350,6 +370,8 @@ def read_store(path: Path) -> StoreView:
     if not path.is_file():
         raise StoreError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
     try:
+        if not h5py.is_hdf5(path):
+            raise StoreError(f"{path}: not a sweep results store (not an HDF5 file)")
         with h5py.File(path, "r") as f:
             kind = _str(f.attrs.get("sweep_file_kind", ""))
             if kind != KIND_STORE:
