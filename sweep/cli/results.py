@@ -233,6 +233,14 @@ def show(results):
                    f"cap bound {a.get('refine_bound')}, at least {a.get('refine_min_contenders')} "
                    f"contenders; {a.get('refine_compute_seconds', float('nan')):.1f} s of compute "
                    f"(variables: {', '.join(view.refine)})")
+        if "refine_widenings" in view.refine:
+            widened = int(np.count_nonzero(view.refine["refine_widenings"]))
+            click.echo(f"  bound check: {widened} part{'s' if widened != 1 else ''} widened, "
+                       f"{int(np.sum(view.refine['refine_n_readmitted'])):,} designs re-admitted, "
+                       f"{int(a.get('refine_widen_maps', 0)):,} maps")
+        else:
+            click.echo("  bound check: refined by an earlier version that did not re-admit "
+                       "designs (`sweep refine` refines it again)")
     if "saved_maps" in a:
         import json
 
