@@ -1,12 +1,15 @@
-"""Mutation testing of the kernels: does the fast kernel test suite notice a small wrong change?
+"""Mutation testing: does the test suite notice a small wrong change of the kernels (or of the code
+that stores and refines their results)?
 
     .venv/bin/python scripts/mutants.py                 # every mutant of scripts/mutants.yaml
     .venv/bin/python scripts/mutants.py --only hull-coincide-tolerance path-tie-to-slip
     .venv/bin/python scripts/mutants.py --list          # the mutants, nothing run
     .venv/bin/python scripts/mutants.py --markdown out.md   # also the results as a table
 
-The mutants are data (`scripts/mutants.yaml`): a kernel module, an exact piece of its text
-(which must occur exactly once), its replacement, what it means and, for a mutant that cannot
+The mutants are data (`scripts/mutants.yaml`): a kernel module (or, with a slash, a module of
+`sweep/`, e.g. `runs/refine.py`), an exact piece of its text (which must occur exactly once), its
+replacement, what it means, optionally the tests that must notice it (`tests:`, instead of the
+fast kernel tests: the tests that watch that module's results) and, for a mutant that cannot
 change any result, the proof (`equivalent:`). Add entries there when kernels change.
 
 Each mutant runs in its own copy of the package and the tests (the working tree is never
@@ -72,10 +75,15 @@ class Mutant:
     replace: str
     note: str
     equivalent: str = ""  # why it cannot change any result (then a survivor is expected)
+    tests: tuple = ()     # the tests that must notice it (default: FAST_TESTS)
+
+    def __post_init__(self):
+        self.tests = tuple(self.tests or ())
 
     @property
     def path(self) -> str:
-        return f"{KERNELS}/{self.file}"
+        """A kernel module by its name; another module of the package by its path in sweep/."""
+        return f"sweep/{self.file}" if "/" in self.file else f"{KERNELS}/{self.file}"
 
 
 def load_mutants(path: Path = MUTANTS_FILE) -> list[Mutant]:
@@ -158,12 +166,15 @@ def main(argv=None) -> int:
     if stale:
         return 2
     modules = sorted({m.file for m in mutants})
-    print(f"{len(mutants)} mutants over {len(modules)} kernel modules: {', '.join(modules)}")
+    print(f"{len(mutants)} mutants over {len(modules)} modules: {', '.join(modules)}")
     if args.list:
         for m in mutants:
             print(f"  {m.name:<34} {m.file:<14} {m.note}")
         return 0
-    tests = args.tests or [t for t in FAST_TESTS if (ROOT / t).exists()]
+    default = args.tests or [t for t in FAST_TESTS if (ROOT / t).exists()]
+
+    def tests_of(m: Mutant) -> list:
+        return list(args.tests or m.tests or default)
 
     results = []
     with tempfile.TemporaryDirectory(prefix="sweep-mutants-") as work:
@@ -172,7 +183,8 @@ def main(argv=None) -> int:
             copy = work / "baseline"
             copy.mkdir()
             make_copy(copy, None)
-            outcome, detail, seconds = run_tests(copy, tests, args.timeout)
+            every = list(dict.fromkeys(t for m in mutants for t in tests_of(m)))
+            outcome, detail, seconds = run_tests(copy, every, args.timeout)
             shutil.rmtree(copy, ignore_errors=True)
             print(f"baseline (no mutant): {outcome} in {seconds:.0f} s {detail}", flush=True)
             if outcome != "passed":
@@ -181,7 +193,7 @@ def main(argv=None) -> int:
             copy = work / f"m{k:03d}"
             copy.mkdir()
             make_copy(copy, m)
-            outcome, detail, seconds = run_tests(copy, tests, args.timeout)
+            outcome, detail, seconds = run_tests(copy, tests_of(m), args.timeout)
             shutil.rmtree(copy, ignore_errors=True)
             status = "survived" if outcome == "passed" else "killed"
             results.append((m, status, detail, seconds))

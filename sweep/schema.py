@@ -212,6 +212,11 @@ REFINE_FIELDS = (
           "from the best at some level (eliminated), in the part's near-tie set, or the best "
           "(all designs of the best's equal-R class)", output="refine",
           flags=REFINE_ROLE_MEANINGS),
+    Field("refine_readmitted", "bool", (),
+          "the design was re-admitted by the part's bound check and recomputed at the levels the "
+          "part reached: a non-contender whose screened caging area plus the largest rise of a "
+          "contender reached the best's refined caging area minus its error, or a contender "
+          "eliminated at an earlier level whose value plus error reached it", "1", "refine"),
     Field("refine_status", "int8", PART_DIMS,
           "outcome of the part's refinement: certified (the best design's lead over every "
           "other contender exceeds the change between the last two levels of both), near_tie "
@@ -228,16 +233,28 @@ REFINE_FIELDS = (
     Field("refine_bound_held", "bool", PART_DIMS,
           "the contender bound held: the best's refined caging area minus its error exceeds "
           "every non-contender's screened caging area plus the largest change of a contender "
-          "from screening to its finest level (else a design left out by the bound could be "
-          "the best)", "1", "refine"),
+          "from screening to its finest level, and every eliminated contender's value plus "
+          "error at its last level (the refinement re-admits what could win until it holds: "
+          "refine_widenings; false only in stores refined before it did)", "1", "refine"),
     Field("refine_bound_used", "float64", PART_DIMS,
           "the part's contender bound: contenders had a screened caging area of at least "
           "(1 - this) times the part's best (3 times the largest change of its min_contenders "
           "best designs from screening to h/2, at most refine_bound); NaN if not refined", "1",
           "refine"),
     Field("refine_n_contenders", "int32", PART_DIMS,
-          "designs recomputed at the first refinement level (equal-R designs counted each)",
-          "1", "refine"),
+          "designs recomputed at the first refinement level (equal-R designs counted each), "
+          "those re-admitted by the bound check included", "1", "refine"),
+    Field("refine_widenings", "int32", PART_DIMS,
+          "rounds in which the part's bound check failed and the designs that could win were "
+          "re-admitted and recomputed (0: the contender bound held at once)", "1", "refine"),
+    Field("refine_n_readmitted", "int32", PART_DIMS,
+          "designs re-admitted by the part's bound check (refine_readmitted; equal-R designs "
+          "counted each)", "1", "refine"),
+    Field("refine_bound_widened", "float64", PART_DIMS,
+          "the part's contender bound after the re-admissions: every design with a screened "
+          "caging area of at least (1 - this) times the part's best contended (the floor "
+          "aside); refine_bound_used when no non-contender was re-admitted, and may exceed "
+          "refine_bound; NaN if not refined", "1", "refine"),
 )
 REFINE = {f.name: f for f in REFINE_FIELDS}
 

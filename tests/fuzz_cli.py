@@ -219,6 +219,53 @@ PATH_KINDS = (("new-file", "new-dir", "new-png", "missing-parent", "under-file",
               + ARTEFACT_KINDS + PERMISSION_KINDS)
 
 
+#: Paths of the wrong kind: what a refusal must call each artefact, and a command it must name
+#: as taking it (None: no command takes it). Written from what the artefacts are, apart from the
+#: CLI's own table, so that the campaign checks the messages rather than repeating them.
+ARTEFACT_WORDS = {
+    "config": ("config", "sweep run"), "store": ("results store", "sweep top"),
+    "rundir": ("run directory", "sweep merge"),
+    "incomplete-rundir": ("run directory", "sweep status"),
+    "shard": ("shard", "sweep merge"), "part": ("part file", "sweep show"),
+    "map": ("map file", "sweep show"), "png": ("picture", None), "empty-dir": ("folder", None),
+    "text-file": ("a file", None),
+}
+_RUN_DIRS = {"rundir", "incomplete-rundir", "empty-dir"}
+#: Which of those artefacts a path parameter of each kind (`param_want`) takes: the others must
+#: be refused by name.
+TAKES = {
+    "config": {"config", "text-file"},
+    "store": {"store", "text-file"},
+    "sweep-file": {"store", "shard", "part", "map", "text-file"},
+    "run-dir": _RUN_DIRS,
+    "store-out": {"store", "text-file"},
+    "run-dir-out": _RUN_DIRS,
+    "store-or-run-out": {"store", "text-file"} | _RUN_DIRS,
+    "folder-out": {"empty-dir"},
+    "map-out": {"map", "text-file"},
+    "picture-out": {"png", "text-file"},
+}
+
+
+def param_want(p: click.Parameter) -> str | None:
+    """The kind of path a parameter takes (its type's `want`; "config" for a config), or None."""
+    if isinstance(p.type, SceneParam):
+        return "config"
+    return getattr(p.type, "want", None)
+
+
+def wrong_kinds(p: click.Parameter) -> list[str]:
+    """The artefacts of another kind than parameter `p` takes."""
+    want = param_want(p)
+    return [] if want is None else sorted(set(ARTEFACT_WORDS) - TAKES[want])
+
+
+def names_its_kind(line: str, kind: str) -> bool:
+    """Does a refusal say what the path of artefact `kind` is, and which command takes it?"""
+    word, command = ARTEFACT_WORDS[kind]
+    return word in line and (command is None or command in line)
+
+
 def _copy(src: Path, dst: Path) -> Path:
     if src.is_dir():
         shutil.copytree(src, dst)

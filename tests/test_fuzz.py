@@ -54,8 +54,10 @@ LONG = os.environ.get("SWEEP_LONG_FUZZ", "") not in ("", "0")
 LONG_CASES = int(os.environ.get("SWEEP_LONG_FUZZ_CASES", "23000"))
 COMMANDS = fz.commands(main)
 #: Relative weight of each test in the long profile (cases = LONG_CASES * weight / total).
-WEIGHTS = {"paths": 8, "options": 4, "map": 6, "config_load": 8, "config_cli": 3}
-BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 150, "config_cli": 4}
+WEIGHTS = {"paths": 8, "options": 4, "map": 6, "config_load": 8, "config_cli": 3,
+           "wrong_kinds": 2}
+BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 150, "config_cli": 4,
+           "wrong_kinds": 2}
 
 
 def profile(test: str, commands: int = 1):
@@ -250,7 +252,49 @@ def test_path_arguments(name, lib, cases, baselines):
         flags = [f for f in cmd.flags if data.draw(st.booleans(), label=f.name)
                  and f.name not in ("progress", "submit")]
         extra = [fz.positive_flag(f) for f in flags] + quiet_flags(cmd)
-        run_case(cmd, kinds, extra, lib, cases, f"paths:{name}")
+        res, _, _ = run_case(cmd, kinds, extra, lib, cases, f"paths:{name}")
+        wrong = [p for p in cmd.paths if kinds.get(p.name) in fz.wrong_kinds(p)]
+        changed = [p for p in cmd.paths if kinds.get(p.name) != base_kinds.get(p.name)]
+        if len(wrong) == 1 and changed == wrong:    # one input of the wrong kind: named as such
+            assert res.exit_code == 2 and fz.names_its_kind(res.output, kinds[wrong[0].name]), \
+                (name, kinds, res.output)
+
+    check()
+
+
+# ---------------------------------------------------------------------------------------------
+# 1b. A path of another kind than the parameter takes, for every parameter and artefact
+# ---------------------------------------------------------------------------------------------
+KIND_COMMANDS = [c.name for c in COMMANDS if any(fz.param_want(p) for p in c.paths)]
+
+
+@pytest.mark.parametrize("name", KIND_COMMANDS)
+def test_a_path_of_another_kind_is_named(name, lib, cases, baselines):
+    """Each path parameter given each artefact of a kind it does not take (a store where a run
+    directory is expected and the other way round, a config where a store is, a folder where a
+    file is, a file where a folder is, ...), the other inputs at the baseline: exit 2, one line
+    that names the input, says what the path is and which command takes it, nothing written.
+    Every pair once, without flags; then (more in the long profile) pairs with random flags."""
+    cmd = next(c for c in COMMANDS if c.name == name)
+    pairs = [(p, kind) for p in cmd.paths for kind in fz.wrong_kinds(p)]
+    assert pairs
+
+    def case(p, kind, extra):
+        kinds = {**baselines[name], p.name: kind}
+        res, _, args = run_case(cmd, kinds, extra + quiet_flags(cmd), lib, cases,
+                                f"wrong-kind:{name}")
+        assert res.exit_code == 2 and fz.names_its_kind(res.output, kind), (args, res.output)
+
+    for p, kind in pairs:
+        case(p, kind, [])
+
+    @profile("wrong_kinds", commands=len(KIND_COMMANDS))
+    @given(data=st.data())
+    def check(data):
+        p, kind = data.draw(st.sampled_from(pairs), label="parameter and kind")
+        flags = [f for f in cmd.flags if data.draw(st.booleans(), label=f.name)
+                 and f.name not in ("progress", "submit")]
+        case(p, kind, [fz.positive_flag(f) for f in flags])
 
     check()
 

@@ -25,6 +25,7 @@ from sweep.config.parse import load_scene
 from sweep.schema import REFINE_FIELDS, REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS, SUMMARY_INDEX
 
 DATA = Path(__file__).parent / "data"
+ROOT = Path(__file__).resolve().parent.parent
 DESIGN = ("l1", "l2", "r1", "r2", "w")
 #: Equal-R designs give the same map; their caging areas differ at most in the last bits.
 TIE_REL = 1e-9
@@ -142,6 +143,50 @@ def test_refined_best_equals_the_full_sweep_at_the_finest_level(refined):
     statuses = check_against_brute_force(scene, ds, levels)
     # the config exercises both outcomes
     assert "certified" in statuses and "near_tie" in statuses, statuses
+
+
+def test_coarse_screening_repairs_its_bound(tmp_path):
+    """configs/small.yaml screened at h = 0.2 with configs/paper.yaml's refine: block. At
+    r = 0.8, mu = 0.4 the leader's interval at h/2 (6.60 +- 0.38) eliminates l1=2 l2=1.6 r1=0.12
+    r2=0.06 w=0.8 (5.48 +- 0.27), then the leader collapses to 4.71 at h/4 and 4.16 at h/8; the
+    eliminated design is the full sweep's best at h/4 (4.886) and h/8 (4.730). The bound check
+    fails, the refinement re-admits what could win (that design and the non-contenders the
+    measured change allows) and recomputes them: its answer is the h/4 full sweep's best, or a
+    near-tie set holding it, for every part; the store and `sweep top` say so."""
+    cfg = yaml.safe_load((ROOT / "configs" / "small.yaml").read_text())
+    cfg["refine"] = yaml.safe_load((ROOT / "configs" / "paper.yaml").read_text())["refine"]
+    config = tmp_path / "small-refine.yaml"
+    config.write_text(yaml.safe_dump(cfg))
+    store = tmp_path / "small.h5"
+    res = invoke("run", config, "--out", store, "--no-progress")
+    assert res.exit_code == 0, res.output
+    scene = load_scene(config)
+    quarter = full_sweep(scene, scene.h / 4)
+    with xr.open_dataset(store, engine="h5netcdf") as ds:
+        ds = ds.load()
+    designs = designs_of(ds)
+    for p, (ri, mi) in enumerate(parts_of(ds)):
+        role = per_design(ds, "refine_role", ri, mi)
+        final = set(np.flatnonzero(role >= REFINE_ROLE_MEANINGS.index("near_tie")).tolist())
+        truth = tied_best(quarter[:, p])
+        assert final & truth, (p, [designs[d] for d in final], [designs[d] for d in truth])
+        if REFINE_STATUS_MEANINGS[int(ds["refine_status"].isel(r=ri, mu=mi))] == "certified":
+            assert final <= truth
+    assert bool(ds["refine_bound_held"].all())
+    ri, mi = list(ds["r"].values).index(0.8), list(ds["mu"].values).index(0.4)
+    p = parts_of(ds).index((ri, mi))
+    want = designs.index((2.0, 1.6, 0.12, 0.06, 0.8))
+    assert tied_best(quarter[:, p]) == {want} and quarter[want, p] == pytest.approx(4.886,
+                                                                                    abs=5e-4)
+    assert int(ds["refine_widenings"].isel(r=ri, mu=mi)) >= 1
+    readmitted = per_design(ds, "refine_readmitted", ri, mi)
+    assert readmitted[want] and int(ds["refine_n_readmitted"].isel(r=ri, mu=mi)) == \
+        int(readmitted.sum())
+    assert per_design(ds, "refine_role", ri, mi)[want] >= REFINE_ROLE_MEANINGS.index("near_tie")
+    res = invoke("top", store, "--r", 0.8, "--mu", 0.4, "-n", 3)
+    assert res.exit_code == 0, res.output
+    assert "contender bound widened" in res.output and "did not hold" not in res.output
+    assert "not confirmed" not in res.output
 
 
 def test_low_friction_with_tip_contact(tmp_path):
@@ -488,15 +533,45 @@ def test_contender_cut_by_hand():
 
 
 def test_store_records_the_bound_each_part_used(refined):
-    """Every contender's screened value reaches the part's stored cut; no other design does,
-    apart from the floor (the min_contenders best)."""
+    """Every contender's screened value reaches the part's stored cut (after any widening); no
+    other design does, apart from the floor (the min_contenders best). The bound holds in the
+    end for every part: what could win was re-admitted."""
     _, _, ds, _ = refined
+    assert bool(ds["refine_bound_held"].all())
     for ri, mi in parts_of(ds):
         used = float(ds["refine_bound_used"].isel(r=ri, mu=mi))
-        assert 0.0 <= used <= CONFIG["refine"]["bound"] + 1e-12
+        widened = float(ds["refine_bound_widened"].isel(r=ri, mu=mi))
+        assert 0.0 <= used <= CONFIG["refine"]["bound"] + 1e-12 and widened >= used
         screened = per_design(ds, "caging_area", ri, mi)
         contending = per_design(ds, "refined_level", ri, mi) > 0
-        cut = (1.0 - used) * screened.max()
+        cut = (1.0 - widened) * screened.max()
         assert np.all(contending[screened >= cut * (1 + 1e-12)])
         floor = np.sort(np.unique(screened))[::-1][CONFIG["refine"]["min_contenders"] - 1]
         assert np.all(screened[contending] >= min(cut, floor) * (1 - 1e-12))
+        assert int(ds["refine_n_contenders"].isel(r=ri, mu=mi)) == int(contending.sum())
+
+
+def test_a_store_refined_before_the_widening_says_so_and_is_refined_again(refined, tmp_path):
+    """A store refined by a version whose bound check only reported (no refine_widenings, a
+    part with refine_bound_held false): `sweep top` names the check as not confirmed and how to
+    repair it, and `sweep refine` refines it again (the result: the current refinement)."""
+    import h5py
+
+    _, store, ds, _ = refined
+    old = tmp_path / "old.h5"
+    old.write_bytes(store.read_bytes())
+    with h5py.File(old, "r+") as f:
+        for name in ("refine_widenings", "refine_n_readmitted", "refine_readmitted",
+                     "refine_bound_widened"):
+            del f[name]
+        f["refine_bound_held"][0, 0] = False
+    res = invoke("top", old, "--r", 0.4, "--mu", 0.7, "-n", 1)
+    assert res.exit_code == 0, res.output
+    assert "contender bound not confirmed" in res.output and "`sweep refine`" in res.output
+    assert "did not hold" not in res.output
+    res = invoke("refine", old, "--no-progress")
+    assert res.exit_code == 0 and "refined" in res.output and "already" not in res.output, \
+        res.output
+    with xr.open_dataset(old, engine="h5netcdf") as m:
+        for f in REFINE_FIELDS:
+            assert np.array_equal(m[f.name].values, ds[f.name].values, equal_nan=True), f.name

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from .common import CONFIG, SweepCommand, UserError
+from .common import CONFIG, FOLDER_OUT, SweepCommand, UserError, check_path
 
 
 @click.command("accuracy", cls=SweepCommand,
@@ -19,7 +19,7 @@ from .common import CONFIG, SweepCommand, UserError
 @click.option("--sample", "n_sample", type=int, default=None,
               help="Halton-spread design cells in the sample (each part's best cell is "
                    "always added) [default: 24].")
-@click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=None,
+@click.option("--out", type=FOLDER_OUT, default=None,
               help="Directory for accuracy.md, .csv, .png and the resumable work files "
                    "[default: results/accuracy-<config name>].")
 @click.option("--map", "maps", multiple=True, metavar="L1,L2,R1,R2,W,R,MU",
@@ -48,9 +48,9 @@ def accuracy(config, n_sample, out, maps, progress):
     except ModelInputError as exc:
         raise UserError(str(exc)) from None
     n_cells = math.prod(len(config.values[a]) for a in ("l1", "l2", "r1", "r2"))
-    out = out or Path("results") / f"accuracy-{config.name}"
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out: {out} is not a directory")
+    if out is None:    # the default is checked like a given --out
+        out = Path("results") / f"accuracy-{config.name}"
+        check_path(out, "folder-out", "--out (default)")
     work = out / f"work-{work_dir_key(config, n_sample)}"
     make_parent(work / "x")     # an unwritable --out fails here, in one line, before any work
     from tqdm import tqdm

@@ -1,5 +1,7 @@
 """What the commands of the CLI share: the one place where errors reach the user, and the
-parameter types and options of more than one command (CONFIG, PATH, FILE, WAIT, THREADS).
+parameter types and options of more than one command (CONFIG, PATH, FILE, WAIT, THREADS), and
+the one check of a path's kind (`check_path`, `KindPath`: a store where a run directory is
+expected, a config where a store is, a folder where a file is, ... named, exit code 2).
 
 `user_errors()` turns what a user can cause or fix - bad input (`ModelInputError`, `SceneError`),
 an unusable file or directory (`StoreError`, `OutputError`, any `OSError`) - into one line on
@@ -141,6 +143,79 @@ class NonEmptyPath(click.Path):
         return super().convert(value, param, ctx)
 
 
+# ---------------------------------------------------------------------------------------------
+# Paths of the wrong kind
+# ---------------------------------------------------------------------------------------------
+#: What a parameter of each kind of path takes: (what it names, in words; the path kinds of
+#: `sweep.runs.rundir.path_kind` it lets through to the command). A missing or unreadable path
+#: always goes through: the command's own message says what is wrong with it.
+WANTS = {
+    "config": ("a sweep config (YAML)", {"config", "file"}),
+    "store": ("a results store", {"store", "hdf5", "file"}),
+    "sweep-file": ("a sweep file (a results store, shard, part or map file)",
+                   {"store", "shard", "part", "map", "hdf5", "file"}),
+    "run-dir": ("a run directory", {"run-dir", "folder"}),
+    "store-out": ("a results store file", {"store", "hdf5", "file"}),
+    "run-dir-out": ("a run directory", {"run-dir", "folder"}),
+    "store-or-run-out": ("a results store or a run directory",
+                         {"store", "hdf5", "file", "run-dir", "folder"}),
+    "folder-out": ("a folder", {"folder"}),
+    "map-out": ("a map file", {"map", "hdf5", "file"}),
+    "picture-out": ("a PNG picture", {"picture", "file"}),
+}
+#: Which command takes a path of each kind (none for kinds no command takes).
+FITS = {
+    "store": "`sweep top`, `show`, `report` or `refine` takes it",
+    "run-dir": "`sweep status` or `sweep merge` takes it",
+    "config": "`sweep run`, `slurm` or `accuracy` takes it",
+    "shard": "`sweep show` describes it; `sweep merge {parent}` merges its run directory",
+    "part": "`sweep show` describes it; rerunning the `sweep run` that wrote it resumes from it",
+    "map": "`sweep show` describes it",
+    "work-dir": "rerunning the command that made it resumes from it",
+    "maps-dir": "`sweep show` describes each map in it",
+}
+
+
+def check_path(path, want: str, label: str) -> None:
+    """Refuse (UserError: one line, exit code 2) a path of another kind than a parameter of kind
+    `want` (WANTS) takes, saying what it is and which command takes it. `label`: the parameter
+    as the user wrote it (`--out`, `STORE`)."""
+    from ..runs.rundir import PATH_KINDS, path_kind
+
+    wanted, takes = WANTS[want]
+    kind = path_kind(path)
+    if kind in ("missing", "unknown") or kind in takes:
+        return
+    fits = FITS.get(kind, "").format(parent=Path(path).parent)
+    raise UserError(f"{label}: {path} is {PATH_KINDS[kind]}, not {wanted}"
+                    + (f": {fits}" if fits else ""))
+
+
+def param_label(param: click.Parameter | None) -> str:
+    """A parameter as the user writes it: `--out` for an option, `STORE` for an argument."""
+    if param is None:
+        return "path"
+    if isinstance(param, click.Option):
+        return max(param.opts, key=len)
+    return (param.metavar or param.name or "path").upper()
+
+
+class KindPath(NonEmptyPath):
+    """A path parameter that takes one kind of path (WANTS) and refuses the others by name
+    (`check_path`), before the command does anything."""
+
+    def __init__(self, want: str, **kwargs):
+        super().__init__(path_type=Path, **kwargs)
+        if want not in WANTS:
+            raise ValueError(f"unknown kind of path {want!r}")
+        self.want = want
+
+    def convert(self, value, param, ctx):
+        path = super().convert(value, param, ctx)
+        check_path(path, self.want, param_label(param))
+        return path
+
+
 class SweepCommand(click.Command):
     """A command whose errors reach the user through `user_errors`; its path parameters
     refuse an empty path (`NonEmptyPath`)."""
@@ -202,6 +277,8 @@ class SceneParam(click.ParamType):
 
         if isinstance(value, Scene):
             return value
+        if isinstance(value, str) and value:
+            check_path(value, "config", param_label(param))
         try:
             scene = load_scene(value)
         except ModelInputError as exc:
@@ -216,6 +293,16 @@ class SceneParam(click.ParamType):
 CONFIG = SceneParam()
 PATH = click.Path(path_type=Path)
 FILE = click.Path(dir_okay=False, path_type=Path)
+#: Paths of one kind each (`KindPath`): a path of another kind is refused by name.
+STORE = KindPath("store")
+SWEEP_FILE = KindPath("sweep-file")
+RUN_DIR = KindPath("run-dir")
+STORE_OUT = KindPath("store-out")
+RUN_DIR_OUT = KindPath("run-dir-out")
+STORE_OR_RUN_OUT = KindPath("store-or-run-out")
+FOLDER_OUT = KindPath("folder-out")
+MAP_OUT = KindPath("map-out")
+PICTURE_OUT = KindPath("picture-out")
 WAIT = click.option("--wait", is_flag=True,
                     help="If another sweep is writing the same output, wait for it instead of "
                          "stopping at once.")

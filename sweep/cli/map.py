@@ -7,14 +7,13 @@ one-line message and exit code 2 (`sweep.cli.common.user_errors`, which every co
 from __future__ import annotations
 
 import contextlib
-from pathlib import Path
 
 import click
 
 from ..model import (  # plain Python: cheap
     EFFECT_NAMES, EFFECTS, TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy,
 )
-from .common import SweepCommand, UserError, real_path
+from .common import MAP_OUT, PICTURE_OUT, SweepCommand, UserError, real_path
 
 
 def effect_parameter_options(command):
@@ -59,10 +58,10 @@ def effect_parameter_options(command):
                    "('discrete' is its old name); continuous, streamlines.")
 @click.option("--threads", type=int, default=None,
               help="Numba threads (default: SLURM_CPUS_PER_TASK or all cores).")
-@click.option("--out", type=click.Path(dir_okay=False, path_type=Path), required=True,
+@click.option("--out", type=MAP_OUT, required=True,
               help="Map file to write (HDF5; opens with xarray, engine='h5netcdf').")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False, path_type=Path),
-              default=None, help="Also draw the map to this PNG.")
+@click.option("--plot", "plot_path", type=PICTURE_OUT, default=None,
+              help="Also draw the map to this PNG.")
 @click.option("--forces/--no-forces", default=False, show_default=True,
               help="Also store each finger's contact forces on the part per unit tendon tension "
                    "(normal forces, distal friction multiplier, resultant; MODEL 5.1, 5.6).")

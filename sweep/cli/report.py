@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import click
 
-from .common import FILE, PATH, WAIT, SweepCommand, UserError
+from .common import FOLDER_OUT, STORE, WAIT, SweepCommand, UserError
 
 
 @click.command("report", cls=SweepCommand,
                short_help="The paper's experiments from one results store, or two scenes.")
-@click.argument("stores", type=FILE, nargs=-1, required=True)
-@click.option("--out", type=PATH, required=True, help="Directory for the report's files.")
+@click.argument("stores", type=STORE, nargs=-1, required=True)
+@click.option("--out", type=FOLDER_OUT, required=True, help="Directory for the report's files.")
 @click.option("--top-k", type=int, default=None,
               help="Scenario A candidates per part [default: the store's "
                    "manipulation_scenario_a_top_k].")
@@ -48,8 +48,6 @@ def report(stores, out, top_k, overwrite, wait):
 
     if len(stores) > 2:
         raise UserError(f"give one store, or two to compare (got {len(stores)})")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out: {out} is a file; it names the report's directory")
     if len(stores) == 1:
         st = open_store(stores[0])
         top_k = resolve_top_k(st, top_k)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from .common import FILE, SweepCommand, UserError
+from .common import STORE, SWEEP_FILE, SweepCommand, UserError
 
 
 TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection", "n_stalled",
@@ -14,7 +14,7 @@ TOP_COLUMNS = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejecti
 
 
 @click.command("top", cls=SweepCommand, short_help="Best designs of each part, as tables.")
-@click.argument("results", type=FILE)
+@click.argument("results", type=STORE)
 @click.option("--r", "r", type=float, default=None,
               help="Part radius (a value of the store); default: every radius.")
 @click.option("--mu", type=float, default=None,
@@ -88,9 +88,12 @@ def _refined_header(view, designs, pick, pick_part):
     ref = view.refine
     role, value, error = (pick(ref[k]) for k in ("refine_role", "refined_caging_area",
                                                   "refined_error"))
+    widened = "refine_widenings" in ref
     out = part_outcome(equal_r_classes(designs), role, value, error,
                        pick_part(ref["refine_status"]), pick_part(ref["refine_finest_h"]),
-                       pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]))
+                       pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]),
+                       pick_part(ref["refine_widenings"]) if widened else None,
+                       pick_part(ref["refine_n_readmitted"]) if widened else 0)
     order = ranking(role, value, pick(view.variables["caging_area"]).astype(np.float64))
     if out.status == "not_refined":
         return ["  refinement: not refined (no design cages at the screening spacing)"], \
@@ -101,8 +104,7 @@ def _refined_header(view, designs, pick, pick_part):
     lines = [f"  refinement: {out.status.replace('_', '-')} at h = {out.finest_h:g}; best "
              f"{_design_text(designs, b)}{twins}, refined caging area {value[b]:.6g} "
              f"(error {error[b]:.2g}), lead over the runner-up {out.margin:.3g} ({rel:.2%})"
-             + ("" if out.bound_held else "; the contender bound did not hold (a design left out "
-                "could be the best: raise refine.bound)")]
+             + (f"; {out.bound_note()}" if out.bound_note() else "")]
     if not out.certified:
         lines.append(f"  near-tie set ({len(out.members)}): " + "; ".join(
             f"{_design_text(designs, d)}: {value[d]:.6g} +- {error[d]:.2g}"
@@ -173,7 +175,7 @@ def _print_top(view, ri, mui, n, by, ascending, command):
 
 @click.command("show", cls=SweepCommand,
                short_help="What a results store (or any sweep file) holds.")
-@click.argument("results", type=FILE)
+@click.argument("results", type=SWEEP_FILE)
 def show(results):
     """Print what a results store holds: dimensions, variables, config, effects, grid,
     provenance and timings. Shard and part files, and single maps (`sweep map`,
@@ -231,6 +233,14 @@ def show(results):
                    f"cap bound {a.get('refine_bound')}, at least {a.get('refine_min_contenders')} "
                    f"contenders; {a.get('refine_compute_seconds', float('nan')):.1f} s of compute "
                    f"(variables: {', '.join(view.refine)})")
+        if "refine_widenings" in view.refine:
+            widened = int(np.count_nonzero(view.refine["refine_widenings"]))
+            click.echo(f"  bound check: {widened} part{'s' if widened != 1 else ''} widened, "
+                       f"{int(np.sum(view.refine['refine_n_readmitted'])):,} designs re-admitted, "
+                       f"{int(a.get('refine_widen_maps', 0)):,} maps")
+        else:
+            click.echo("  bound check: refined by an earlier version that did not re-admit "
+                       "designs (`sweep refine` refines it again)")
     if "saved_maps" in a:
         import json
 

@@ -8,13 +8,13 @@ import sys
 
 import click
 
-from .common import (CONFIG, EXIT_INTERRUPTED, FILE, PATH, THREADS, WAIT, SweepCommand, UserError,
-                     interrupted_message)
+from .common import (CONFIG, EXIT_INTERRUPTED, RUN_DIR, STORE, STORE_OR_RUN_OUT, STORE_OUT,
+                     THREADS, WAIT, SweepCommand, UserError, check_path, interrupted_message)
 
 
 @click.command("run", cls=SweepCommand, short_help="Compute a sweep (one machine, or one chunk).")
 @click.argument("config", type=CONFIG)
-@click.option("--out", type=PATH, required=True,
+@click.option("--out", type=STORE_OR_RUN_OUT, required=True,
               help="Results store (.h5) to write; with --chunks, the run directory.")
 @click.option("--chunk", type=int, default=None,
               help="Which chunk to compute, 0..N-1 (default: from the array job's environment).")
@@ -67,11 +67,9 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
             chunk, source = found
         if not 0 <= chunk < chunks:
             raise UserError(f"{source}: chunk index {chunk} outside 0..{chunks - 1}")
-        if out.exists() and not out.is_dir():
-            raise UserError(f"--out: {out} is a file; with --chunks it names a run directory")
-    elif out.is_dir():
-        raise UserError(f"--out: {out} is a directory; without --chunks it names the results "
-                        "file")
+        check_path(out, "run-dir-out", "--out (with --chunks)")
+    else:
+        check_path(out, "store-out", "--out (without --chunks)")
     try:
         if chunks is None:
             res = runner.run_single(scene, out, threads=threads, progress=progress,
@@ -135,7 +133,7 @@ def _run_refinement(store, settings, threads, progress, restart, wait, force=Fal
 
 @click.command("refine", cls=SweepCommand,
                short_help="Refine a store's best designs on finer grids and certify them.")
-@click.argument("store", type=FILE)
+@click.argument("store", type=STORE)
 @click.option("--levels", type=click.IntRange(min=1), default=None,
               help="Level cap: recompute at h/2 ... h/2^LEVELS [default: the config's refine:, "
                    "else 3].")
@@ -160,8 +158,10 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
     their change from screening to h/2 says could still be the best, capped by --bound) at
     h/2, h/4, ... until the
     best design's lead over every other contender exceeds the change between the last two
-    levels (certified), or up to the level cap (then the part has a near-tie set). Equal-R
-    designs (same l1, l2, w and r2/r1) give the same map and count once.
+    levels (certified), or up to the level cap (then the part has a near-tie set). Where a
+    part's check that no design left out could be the best fails, those designs are re-admitted
+    and recomputed until it holds. Equal-R designs (same l1, l2, w and r2/r1) give the same map
+    and count once.
 
     \b
     sweep refine results/paper.h5
@@ -198,8 +198,8 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
 
 
 @click.command("merge", cls=SweepCommand, short_help="Merge finished shards into one store.")
-@click.argument("directory", type=PATH)
-@click.option("--out", type=FILE, required=True, help="Results store (.h5) to write.")
+@click.argument("directory", type=RUN_DIR)
+@click.option("--out", type=STORE_OUT, required=True, help="Results store (.h5) to write.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 @click.option("--refine/--no-refine", "do_refine", default=True, show_default=True,
               help="When the config has `refine:`, refine the merged store (as `sweep refine`).")

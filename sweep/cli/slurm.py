@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from .common import CONFIG, PATH, SweepCommand, UserError, real_path
+from .common import CONFIG, RUN_DIR, RUN_DIR_OUT, STORE_OUT, SweepCommand, UserError, real_path
 
 
 @click.command("slurm", cls=SweepCommand,
@@ -17,7 +17,7 @@ from .common import CONFIG, PATH, SweepCommand, UserError, real_path
 @click.argument("config", type=CONFIG)
 @click.option("--chunks", type=click.IntRange(min=1), required=True,
               help="Number of chunks (array tasks).")
-@click.option("--out", type=PATH, required=True, help="Run directory for the shards.")
+@click.option("--out", type=RUN_DIR_OUT, required=True, help="Run directory for the shards.")
 @click.option("--parallel", type=click.IntRange(min=1), default=None,
               help="Most array tasks running at once (--array=0-{N-1}%P).")
 @click.option("--cpus-per-task", type=click.IntRange(min=1), default=4, show_default=True,
@@ -34,7 +34,7 @@ from .common import CONFIG, PATH, SweepCommand, UserError, real_path
               help="Extra #SBATCH option, repeatable (e.g. --sbatch qos=long).")
 @click.option("--submit", is_flag=True,
               help="Submit the array and a dependent merge job instead of printing.")
-@click.option("--results", type=click.Path(dir_okay=False, path_type=Path), default=None,
+@click.option("--results", type=STORE_OUT, default=None,
               help="With --submit: the store the merge job writes [default: DIR/results.h5].")
 def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem, partition,
                   account, job_name, sweep_cmd, sbatch_opts, submit, results):
@@ -79,8 +79,6 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     if sweep_cmd is None:
         exe = Path(sys.executable).parent / "sweep"
         sweep_cmd = str(exe) if exe.exists() else (shutil.which("sweep") or "sweep")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out: {out} is a file; it names the run directory")
     rundir = RunDir(real_path(out))
     job_name = job_name or f"sweep-{scene.name}"
     text = slurm.sbatch_script(
@@ -160,7 +158,7 @@ def _submit_array_and_merge(rundir, array_text, merge_text, results, chunks, sba
 
 
 @click.command("status", cls=SweepCommand, short_help="Which shards of a run directory are done.")
-@click.argument("directory", type=PATH)
+@click.argument("directory", type=RUN_DIR)
 def status(directory):
     """Say which shards of a chunked run directory are done, missing, corrupt or mismatched.
 

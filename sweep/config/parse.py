@@ -77,6 +77,16 @@ def load_scene(path: str | Path) -> Scene:
     return dataclasses.replace(scene_from_dict(raw, default_name=path.stem), path=str(path))
 
 
+#: `looks_like_config`: a top-level key every config has, at the start of a line.
+_CONFIG_KEY = re.compile(rb"^(designs|parts)\s*:", re.M)
+
+
+def looks_like_config(head: bytes, name: str) -> bool:
+    """Whether a file looks like a sweep config from its name and first bytes: a .yaml or .yml
+    name, or text with a top-level `designs:` or `parts:` key (what `load_scene` requires)."""
+    return Path(name).suffix.lower() in (".yaml", ".yml") or bool(_CONFIG_KEY.search(head))
+
+
 def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     """Validate and expand a parsed config mapping."""
     raw = _mapping(raw, "config", TOP_KEYS, required=("designs", "parts"))

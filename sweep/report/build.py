@@ -232,11 +232,15 @@ def markdown(st: StoreData, rep: Report) -> str:
               "between the last two levels of both, so that a finer grid is not expected to "
               "change it; at the level cap the designs still in the running are the part's "
               "near-tie set, each reported with its value and error estimate.",
-              "- *Bound not confirmed*: the contender bound is checked per part; it held when the "
-              "best's refined value minus its error exceeds every other design's screened value "
-              "plus the largest change any contender showed from screening to its finest level. "
-              "Where it did not, a design left out by the bound could be the best (raise "
-              "`refine.bound`)."]
+              "- *Bound widened*: the contender bound is checked per part; it holds when the "
+              "best's refined value minus its error exceeds every non-contender's screened value "
+              "plus the largest change any contender showed from screening to its finest level, "
+              "and every eliminated contender's value plus error at its last level. Where it "
+              "does not, the designs that could be the best are re-admitted, recomputed at the "
+              "levels the part reached and separated again (the levels go on if several are "
+              "left below the cap), until it holds; the certification column says how many "
+              "designs were re-admitted. (*Bound not confirmed* appears only for a store refined "
+              "by an earlier version: `sweep refine STORE` repairs it.)"]
     L += ["- Best caging design of a part" + (" that is not refined" if st.refined else "")
           + ": largest Λ over (l1, l2, r1, r2, w); ties are "
           "expected (configurations depend on the radii only through R = r2/r1), broken by the "

@@ -373,7 +373,9 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
               "design is certified when its lead over every other contender exceeds the change "
               "of both between the last two grid spacings, so a finer grid is not expected to "
               "change it; otherwise the designs still in the running form the part's near-tie "
-              "set, each with its value and error estimate."]
+              "set, each with its value and error estimate. *Bound widened (N re-admitted)*: the "
+              "part's contender bound check failed, and the N designs that could be the best "
+              "were re-admitted and recomputed until it held."]
     L += ["", "## 1. Best caging design per part (`best_designs.png`, `best_designs.csv`)", "",
           md_table(rep.best, best_columns(st1, st2))]
     for s, st in (("1", st1), ("2", st2)):

@@ -28,10 +28,19 @@ can be the best, so only they are recomputed on finer grids. Per part (r, mu) an
    others, and a class whose level-(k-1) value plus error is already below the leader's new
    value minus its new error is eliminated without being computed at level k (the test above,
    with the class's last interval; model-notes D28).
-4. *Bound check.* The contender bound is an assumption about how far the screening can be off;
-   each part checks it against its own run: it *held* when the best's value minus its error
-   exceeds every non-contender's screened value plus the largest rise (or least fall) of any
-   contender from its screened value to its finest one (`refine_bound_held`).
+4. *Bound check, repaired.* The contender bound and the eliminations are assumptions about how
+   far a value can still move; each part checks them against its own run. A class outside the
+   part's final set *could win* when it is a non-contender whose screened value plus the largest
+   rise (or least fall) of any contender from its screened value to its finest one reaches the
+   best's value minus its error, or a contender eliminated at an earlier level whose value plus
+   error there reaches it (the leader-first test, with the final best's interval: a leader whose
+   value then collapsed by more than its error estimate eliminated it on a false premise). Such
+   classes are *re-admitted*: they contend, are recomputed at every level up to the part's
+   finest, and that level is separated again (levels go on below the cap if several classes are
+   left); repeated until nothing could win (`refine_widenings`, `refine_readmitted`). Every
+   round re-admits a class below the finest level or outside the contenders, so it ends, at
+   worst with every class computed at the finest level, and the stored `refine_bound_held` is
+   true.
 
 Every map's caging area depends on that map alone, and the plan of each level is a pure function
 of the screened values and the earlier levels' values, so the result does not depend on how the
@@ -145,10 +154,17 @@ def separate(now: np.ndarray, previous: np.ndarray) -> tuple[int, np.ndarray, np
     Returns (position of the best, error estimates |now - previous|, mask of the classes still
     in the running: value + error >= best value - best error; the best always stays)."""
     err = np.abs(now - previous)
+    b, keep = separated(now, err)
+    return b, err, keep
+
+
+def separated(now: np.ndarray, err: np.ndarray) -> tuple[int, np.ndarray]:
+    """`separate` from the error estimates: (position of the best, mask of the classes still in
+    the running)."""
     b = int(np.argmax(now))                    # first of the largest: store order
     keep = now + err >= now[b] - err[b]
     keep[b] = True
-    return b, err, keep
+    return b, keep
 
 
 def lead(now: np.ndarray, b: int) -> float:
@@ -272,9 +288,24 @@ class Refinement:
     n_contenders: np.ndarray            # (n_parts,) int32: contending designs (all class members)
     bound_held: np.ndarray              # (n_parts,) bool: the bound check (module docstring)
     bound_used: np.ndarray              # (n_parts,) the part's contender bound (step 2)
+    readmitted: np.ndarray = None       # (n_designs, n_parts) bool: re-admitted by step 4
+    widenings: np.ndarray = None        # (n_parts,) int32: rounds of step 4 (0: held at once)
+    n_readmitted: np.ndarray = None     # (n_parts,) int32: designs re-admitted (class members)
+    bound_widened: np.ndarray = None    # (n_parts,) the contender bound after step 4
     level_maps: list = field(default_factory=list)      # maps computed per level (1..)
     level_seconds: list = field(default_factory=list)   # compute seconds per level
+    widen_maps: int = 0                 # of those, maps computed by step 4
     computed_maps: int = 0              # maps computed by this invocation
+
+    def __post_init__(self):
+        n_designs, n_parts = self.value.shape
+        if self.readmitted is None:
+            self.readmitted = np.zeros((n_designs, n_parts), dtype=bool)
+        for name, dtype in (("widenings", np.int32), ("n_readmitted", np.int32)):
+            if getattr(self, name) is None:
+                setattr(self, name, np.zeros(n_parts, dtype=dtype))
+        if self.bound_widened is None:
+            self.bound_widened = self.bound_used.copy()
 
     @property
     def seconds(self) -> float:
@@ -303,119 +334,213 @@ def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
     with w fastest and the scene's widths; the scene's parts) from their screened caging areas:
     `refine_scene` for a whole config, `sweep accuracy` for its sample."""
     parts = part_table(scene)
-    reps = equal_r_classes(designs)
     n_designs, n_parts = screened.shape
     if n_designs != designs.shape[0] or n_parts != parts.shape[0]:
         raise RefineError(f"screened values of shape {screened.shape} for {designs.shape[0]} "
                           f"designs and {parts.shape[0]} parts")
     prepare_work_dir(work, identity or refine_identity(scene, settings, designs))
-    class_reps = np.unique(reps)
-    status = np.zeros(n_parts, dtype=np.int8)
-    finest = np.zeros(n_parts, dtype=np.int8)
-    margin = np.full(n_parts, np.nan)
-    n_contenders = np.zeros(n_parts, dtype=np.int32)
-    value = np.full((n_designs, n_parts), np.nan)
-    level = np.zeros((n_designs, n_parts), dtype=np.int8)
-    error = np.full((n_designs, n_parts), np.nan)
-    role = np.full((n_designs, n_parts), ROLE["screened"], dtype=np.int8)
-    latest = screened.copy()               # per representative: value at its latest level
-    bound_used = np.full(n_parts, np.nan)
-    out = Refinement(settings, scene.h, reps, value, level, error, role, status, finest, margin,
-                     n_contenders, np.zeros(n_parts, dtype=bool), bound_used)
-    # Level 1 in two passes (step 2 of the module docstring): the floor, then the classes its
-    # changes call for.
-    h1 = settings.level_h(scene.h, 1)
-    floor = [select_contenders(class_reps, screened[:, p], settings, floor_only=True)
-             for p in range(n_parts)]
-    got, seconds, computed = _run_level(scene, designs, parts, _keys(floor, range(n_parts)), h1,
-                                        "1a", work, progress)
-    alive = []
-    for p in range(n_parts):
-        c = floor[p]
-        if c.size:
-            best0 = float(screened[c, p].max())
-            now = np.array([got[(p, int(d))] for d in c])
-            cut = contender_cut(best0, now, screened[c, p], settings.bound)
-            bound_used[p] = 1.0 - cut / best0
-            c = np.union1d(c, class_reps[screened[class_reps, p] >= cut])
-        alive.append(c)
-        n_contenders[p] = int(np.isin(reps, c).sum())
-        role[np.isin(reps, c), p] = ROLE["eliminated"]
-        status[p] = STATUS["near_tie"] if c.size else STATUS["not_refined"]
-    rest = [np.setdiff1d(alive[p], floor[p]) for p in range(n_parts)]
-    got_b, seconds_b, computed_b = _run_level(scene, designs, parts, _keys(rest, range(n_parts)),
-                                              h1, "1b", work, progress)
-    got.update(got_b)
-    contenders = [c.copy() for c in alive]
-    active = [p for p in range(n_parts) if alive[p].size]
-    leader = {}                            # per part: the best of the last level
-    for k in range(1, settings.levels + 1):
-        if not active:
-            break
-        if k > 1:
-            alive, got, seconds, computed = _leader_first(
-                scene, designs, parts, alive, active, leader, latest, error,
-                settings.level_h(scene.h, k), str(k), work, progress)
-        else:
-            seconds, computed = seconds + seconds_b, computed + computed_b
-        keys = _keys(alive, active)
-        out.level_maps.append(int(keys.shape[0]))
-        out.level_seconds.append(seconds)
+    stage = _Stage(scene, designs, parts, screened, settings, work, progress)
+    todo = stage.level_one()
+    if todo:
+        stage.advance(todo)
+    stage.widen()
+    return stage.finish()
+
+
+class _Stage:
+    """The state of one refinement while it runs (`refine_designs`): per part its contenders,
+    the classes still in the running, its leader and finest level; per class its latest value
+    and level. Every map goes through `compute` (work files, cost per level)."""
+
+    def __init__(self, scene, designs, parts, screened, settings, work, progress):
+        self.scene, self.designs, self.parts = scene, designs, parts
+        self.screened, self.settings = screened, settings
+        self.work, self.progress = work, progress
+        n_designs, n_parts = screened.shape
+        self.reps = equal_r_classes(designs)
+        self.class_reps = np.unique(self.reps)
+        self.latest = screened.copy()      # per representative: value at its latest level
+        empty = np.zeros(0, dtype=np.int64)
+        self.contenders = [empty] * n_parts
+        self.alive = [empty] * n_parts     # the classes still in the running
+        self.leader = {}                   # per part: the best of its finest level
+        self.cut = np.full(n_parts, np.nan)    # screened value a class needed to contend
+        self.out = Refinement(
+            settings, scene.h, self.reps, np.full((n_designs, n_parts), np.nan),
+            np.zeros((n_designs, n_parts), dtype=np.int8), np.full((n_designs, n_parts), np.nan),
+            np.full((n_designs, n_parts), ROLE["screened"], dtype=np.int8),
+            np.zeros(n_parts, dtype=np.int8), np.zeros(n_parts, dtype=np.int8),
+            np.full(n_parts, np.nan), np.zeros(n_parts, dtype=np.int32),
+            np.zeros(n_parts, dtype=bool), np.full(n_parts, np.nan),
+            level_maps=[0] * settings.levels, level_seconds=[0.0] * settings.levels)
+
+    # -- maps -----------------------------------------------------------------------------------
+    def compute(self, keys: np.ndarray, k: int, label: str) -> None:
+        """The maps `keys` (part, representative) at level k, recorded: each class's value there
+        and its error estimate, the change from its level before."""
+        got, seconds, computed = _run_level(self.scene, self.designs, self.parts, keys,
+                                            self.settings.level_h(self.scene.h, k), label,
+                                            self.work, self.progress)
+        out = self.out
+        out.level_maps[k - 1] += int(keys.shape[0])
+        out.level_seconds[k - 1] += seconds
         out.computed_maps += computed
-        still = []
+        for p, d in keys.tolist():
+            now = got[(p, d)]
+            members = self.reps == d
+            out.value[members, p] = now
+            out.level[members, p] = k
+            out.error[members, p] = abs(now - self.latest[d, p])
+            self.latest[d, p] = now
+
+    # -- step 2 and level 1 ----------------------------------------------------------------------
+    def level_one(self) -> dict:
+        """Level 1 in two passes (step 2): the floor, then the classes its changes call for.
+        Returns {part: 2} for the parts that go on."""
+        s, out, screened = self.settings, self.out, self.screened
+        n_parts = screened.shape[1]
+        floor = [select_contenders(self.class_reps, screened[:, p], s, floor_only=True)
+                 for p in range(n_parts)]
+        self.compute(_keys(floor, range(n_parts)), 1, "1a")
+        for p in range(n_parts):
+            c = floor[p]
+            if c.size:
+                best0 = float(screened[c, p].max())
+                cut = contender_cut(best0, self.latest[c, p], screened[c, p], s.bound)
+                out.bound_used[p] = 1.0 - cut / best0
+                self.cut[p] = cut
+                c = np.union1d(c, self.class_reps[screened[self.class_reps, p] >= cut])
+            self.contenders[p] = c
+            out.status[p] = STATUS["near_tie"] if c.size else STATUS["not_refined"]
+        rest = [np.setdiff1d(self.contenders[p], floor[p]) for p in range(n_parts)]
+        self.compute(_keys(rest, range(n_parts)), 1, "1b")
+        todo = {}
+        for p in range(n_parts):
+            if self.contenders[p].size:
+                self.conclude(p, 1)
+                if self.alive[p].size > 1 and s.levels > 1:
+                    todo[p] = 2
+        return todo
+
+    def conclude(self, p: int, k: int) -> None:
+        """Step 3 at level k of part p: the classes computed there are separated; the best is the
+        leader of the next level; one class left certifies the part."""
+        c = self.class_reps[self.out.level[self.class_reps, p] == k]
+        now = self.latest[c, p]
+        b, keep = separated(now, self.out.error[c, p])
+        self.out.finest_level[p] = k
+        if c.size > 1:    # else the leader was computed alone: its lead stays the last one
+            self.out.margin[p] = lead(now, b)
+        self.leader[p] = int(c[b])
+        self.alive[p] = c[keep]
+        self.out.status[p] = STATUS["certified" if self.alive[p].size == 1 else "near_tie"]
+
+    # -- levels 2 and up, leader first -----------------------------------------------------------
+    def advance(self, todo: dict, prefix: str = "") -> None:
+        """Levels from todo[p] up to the cap for the parts of `todo`, until each is certified."""
+        active: list = []
+        for k in range(min(todo.values()), self.settings.levels + 1):
+            active = sorted(set(active) | {p for p, k0 in todo.items() if k0 == k})
+            if not active:
+                continue
+            self.leader_first(active, k, prefix)
+            for p in active:
+                self.conclude(p, k)
+            active = [p for p in active if self.alive[p].size > 1 and k < self.settings.levels]
+
+    def leader_first(self, active: list, k: int, prefix: str) -> None:
+        """Level k of the parts `active` (model-notes D28): each part's leader first, then the
+        classes still in the running whose last value plus error reaches the leader's new value
+        minus its new error; the others are eliminated without being computed at level k."""
+        lead_keys = np.array([(p, self.leader[p]) for p in active], dtype=np.int64).reshape(-1, 2)
+        self.compute(lead_keys, k, f"{prefix}{k}a")
+        rest = []
         for p in active:
-            c = alive[p]
-            now = np.array([got[(p, int(d))] for d in c])
-            b, err, keep = separate(now, latest[c, p])
-            latest[c, p] = now
-            for j, d in enumerate(c):
-                members = reps == d
-                value[members, p] = now[j]
-                level[members, p] = k
-                error[members, p] = err[j]
-            finest[p] = k
-            if c.size > 1:    # else the leader was computed alone: its lead stays the last one
-                margin[p] = lead(now, b)
-            leader[p] = int(c[b])
-            alive[p] = c[keep]
-            if alive[p].size == 1:
-                status[p] = STATUS["certified"]
-            elif k < settings.levels:
-                still.append(p)
-        active = still
-    for p in range(n_parts):
-        if alive[p].size:
-            for d in alive[p]:
-                role[reps == d, p] = ROLE["near_tie"]
-            # the best: the largest value at the finest level (first in store order)
-            best = alive[p][int(np.argmax(latest[alive[p], p]))]
-            role[reps == best, p] = ROLE["best"]
-            out.bound_held[p] = bound_held(class_reps, contenders[p], screened[:, p],
-                                           latest[:, p], value[best, p] - error[best, p])
-    return out
+            d = self.leader[p]
+            low = self.latest[d, p] - self.out.error[d, p]
+            c = self.alive[p]
+            c = c[c != d]
+            rest.append(c[self.latest[c, p] + self.out.error[c, p] >= low])
+        self.compute(_keys(dict(zip(active, rest)), active), k, f"{prefix}{k}b")
+
+    # -- step 4: the bound check, repaired -------------------------------------------------------
+    def left_out(self, p: int) -> np.ndarray:
+        """Representatives of part p that are not in its final set and could still be its best
+        (step 4): empty when the bound held."""
+        best = self.leader[p]
+        best_low = self.latest[best, p] - self.out.error[best, p]
+        c = self.contenders[p]
+        outside = could_win_outside(self.class_reps, c, self.screened[:, p], self.latest[:, p],
+                                    best_low)
+        gone = np.setdiff1d(c, self.alive[p])
+        gone = gone[self.out.level[gone, p] < self.out.finest_level[p]]
+        back = gone[self.latest[gone, p] + self.out.error[gone, p] >= best_low]
+        return np.union1d(outside, back)
+
+    def widen(self) -> None:
+        """Step 4: re-admit what the check says could win, recompute it at the levels the part
+        reached, separate again (and go on to the next levels if that leaves several classes
+        below the cap); repeat until the check holds for every part."""
+        out, n_parts = self.out, self.screened.shape[1]
+        for rounds in itertools.count(1):
+            back = {p: self.left_out(p) for p in range(n_parts) if self.alive[p].size}
+            back = {p: c for p, c in back.items() if c.size}
+            if not back:
+                break
+            prefix = f"w{rounds}-"
+            maps_before = sum(out.level_maps)
+            for p, c in back.items():
+                outside = np.setdiff1d(c, self.contenders[p])
+                if outside.size:
+                    self.cut[p] = min(self.cut[p], float(self.screened[outside, p].min()))
+                self.contenders[p] = np.union1d(self.contenders[p], c)
+                out.readmitted[np.isin(self.reps, c), p] = True
+                out.widenings[p] += 1
+            reached = {p: int(out.finest_level[p]) for p in back}
+            for k in range(1, max(reached.values()) + 1):
+                keys = {p: c[out.level[c, p] < k] if k <= reached[p] else c[:0]
+                        for p, c in back.items()}
+                self.compute(_keys(keys, sorted(back)), k, f"{prefix}{k}")
+            todo = {}
+            for p in sorted(back):
+                self.conclude(p, reached[p])
+                if self.alive[p].size > 1 and reached[p] < self.settings.levels:
+                    todo[p] = reached[p] + 1
+            if todo:
+                self.advance(todo, prefix)
+            out.widen_maps += sum(out.level_maps) - maps_before
+
+    def finish(self) -> Refinement:
+        out, reps, screened = self.out, self.reps, self.screened
+        for p in range(screened.shape[1]):
+            c = self.contenders[p]
+            out.n_contenders[p] = int(np.isin(reps, c).sum())
+            out.n_readmitted[p] = int(out.readmitted[:, p].sum())
+            out.role[np.isin(reps, c), p] = ROLE["eliminated"]
+            if not self.alive[p].size:
+                continue
+            out.role[np.isin(reps, self.alive[p]), p] = ROLE["near_tie"]
+            best = self.leader[p]
+            out.role[reps == best, p] = ROLE["best"]
+            out.bound_held[p] = not self.left_out(p).size
+            best0 = float(screened[self.class_reps, p].max())
+            out.bound_widened[p] = 1.0 - self.cut[p] / best0
+        while out.level_maps and not out.level_maps[-1]:   # levels no part reached
+            out.level_maps.pop()
+            out.level_seconds.pop()
+        return out
 
 
-def _leader_first(scene, designs, parts, alive, active, leader, latest, error, h, label, work,
-                  progress):
-    """Level `label` (2, 3, ...) of the parts `active`, leader first (module docstring, step 3):
-    each part's leader (the best of the last level) at spacing h, then the classes of `alive`
-    whose last value plus error reaches the leader's new value minus its new error. Returns
-    (the classes computed per part, {(part, representative): value}, seconds, maps computed)."""
-    lead_keys = np.array([(p, leader[p]) for p in active], dtype=np.int64).reshape(-1, 2)
-    got, seconds, computed = _run_level(scene, designs, parts, lead_keys, h, label + "a", work,
-                                        progress)
-    now_alive = list(alive)
-    for p in active:
-        d = leader[p]
-        low = got[(p, d)] - abs(got[(p, d)] - latest[d, p])
-        c = alive[p]
-        now_alive[p] = c[(c == d) | (latest[c, p] + error[c, p] >= low)]
-    rest = [np.setdiff1d(now_alive[p], [leader[p]]) if p in active else alive[p][:0]
-            for p in range(len(alive))]
-    got_b, seconds_b, computed_b = _run_level(scene, designs, parts, _keys(rest, active), h,
-                                              label + "b", work, progress)
-    got.update(got_b)
-    return now_alive, got, seconds + seconds_b, computed + computed_b
+def could_win_outside(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
+                      latest: np.ndarray, best_low: float) -> np.ndarray:
+    """The non-contenders of one part that could still be its best: screened value plus the
+    largest change of a contender from its screened value to its latest (finest) one at least
+    `best_low` (the best's value minus its error). Sorted representatives."""
+    out = np.setdiff1d(reps, contenders)
+    if not out.size:
+        return out
+    drift = float(np.max(latest[contenders] - screened[contenders]))
+    return out[screened[out] + drift >= best_low]
 
 
 def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
@@ -423,11 +548,7 @@ def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
     """The bound check of one part: `best_low` (the best's value minus its error) exceeds every
     non-contender's screened value plus the largest change of a contender from its screened
     value to its latest (finest) one. True when every class contended."""
-    out = np.setdiff1d(reps, contenders)
-    if not out.size:
-        return True
-    drift = float(np.max(latest[contenders] - screened[contenders]))
-    return bool(best_low > float(np.max(screened[out])) + drift)
+    return not could_win_outside(reps, contenders, screened, latest, best_low).size
 
 
 def _run_level(scene, designs, parts, keys, h, label, work, progress):
@@ -500,8 +621,10 @@ def store_settings(view) -> RefineSettings | None:
 
 
 def is_refined(view, scene: Scene, settings: RefineSettings) -> bool:
-    """The store holds the refinement of this config under these settings."""
+    """The store holds the refinement of this config under these settings (by a version that
+    repairs its own bound: `refine_widenings` present)."""
     return (view.attrs.get("config_hash") == scene.config_hash and view.refine and
+            "refine_widenings" in view.refine and
             view.attrs.get("refine_sweep_version") == __version__ and
             store_settings(view) == settings)
 

@@ -30,10 +30,11 @@ from ..grid import available_memory
 from ..outputs import (
     OutputLock, claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic,
 )
-from ..config.parse import scene_from_frozen
+from ..config.parse import looks_like_config, scene_from_frozen
 from ..config.scene import Scene
 from ..storage.store import (
-    KIND_SHARD, Block, CorruptFile, StoreError, first_line, read_block, write_bytes, write_store,
+    KIND_SHARD, Block, CorruptFile, StoreError, file_kind, first_line, read_block, write_bytes,
+    write_store,
 )
 
 
@@ -101,6 +102,62 @@ def refine_dir(store: Path) -> Path:
     """Work directory of the refinement of the store `store` (`sweep.runs.refine`): beside it."""
     store = Path(store)
     return store.with_name(store.name + ".refine")
+
+
+#: What each kind of path `path_kind` tells apart is, in words.
+PATH_KINDS = {
+    "missing": "missing",
+    "unknown": "unreadable",
+    "store": "a results store",
+    "shard": "a shard of a chunked run (one chunk's summaries)",
+    "part": "a part file (one finished sub-chunk of a run, kept for resuming)",
+    "map": "a map file (one energy map)",
+    "hdf5": "an HDF5 file that is not a sweep file",
+    "config": "a sweep config (YAML)",
+    "picture": "a PNG picture",
+    "file": "a file",
+    "run-dir": "a run directory (the shards of a chunked sweep)",
+    "work-dir": "a run's work folder (finished pieces kept for resuming)",
+    "maps-dir": "a run's folder of saved maps",
+    "folder": "a folder",
+}
+#: The first bytes of a PNG file.
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+#: Bytes of a file read to tell a config from other text.
+PEEK_BYTES = 1 << 16
+
+
+def path_kind(path: Path) -> str:
+    """What `path` is, as far as its name and contents tell: a key of PATH_KINDS. The one place
+    that tells the kinds of path apart (run directories and the work folders of runs by their
+    names, sweep files by `sweep.storage.store.file_kind`, configs by
+    `sweep.config.parse.looks_like_config`); "unknown" when it cannot be read, so that the
+    command's own message says why."""
+    path = Path(path)
+    try:
+        if not path.exists():
+            return "missing"
+        if path.is_dir():
+            if RunDir(path).manifest.exists() or any(_SHARD_RE.match(p.name)
+                                                     for p in path.iterdir()):
+                return "run-dir"
+            if path.name.endswith((".parts", ".refine")) or (
+                    path.name == "parts" and RunDir(path.parent).manifest.exists()):
+                return "work-dir"
+            if path.name.endswith(".maps") or (path.name == "maps" and
+                                               RunDir(path.parent).manifest.exists()):
+                return "maps-dir"
+            return "folder"
+        kind = file_kind(path)
+        if kind is not None:
+            return kind
+        with open(path, "rb") as fh:
+            head = fh.read(PEEK_BYTES)
+    except (OSError, RuntimeError):     # RuntimeError: a symlink loop on some Pythons
+        return "unknown"
+    if head.startswith(PNG_SIGNATURE):
+        return "picture"
+    return "config" if looks_like_config(head, path.name) else "file"
 
 
 def part_path(parts_dir: Path, start: int, stop: int) -> Path:

@@ -59,21 +59,46 @@ class PartOutcome:
     value: np.ndarray           # per design: refined caging area (NaN: screened only)
     error: np.ndarray           # per design: its error estimate
     bound_held: bool = True     # the part's bound check (module docstring)
+    widenings: int | None = 0   # rounds of re-admission (None: a store refined before them)
+    n_readmitted: int = 0       # designs re-admitted by the bound check
 
     @property
     def certified(self) -> bool:
         return self.status == "certified"
 
+    def bound_label(self) -> str:
+        """`bound_note` in a few words, for a table cell ('' when the bound held at once)."""
+        if self.widenings:
+            return f"bound widened ({self.n_readmitted} re-admitted)"
+        return "" if self.bound_held else "bound not confirmed (refine again)"
+
+    def bound_note(self) -> str:
+        """What the part's bound check did, in words ('' when it held at once)."""
+        if self.widenings:
+            rounds = f"{self.widenings} round{'s' if self.widenings != 1 else ''}"
+            return (f"contender bound widened: {self.n_readmitted} "
+                    f"design{'s' if self.n_readmitted != 1 else ''} that could win re-admitted "
+                    f"and recomputed in {rounds}")
+        if self.bound_held:
+            return ""
+        # Only a store refined before the refinement widened its own bound gets here.
+        return ("contender bound not confirmed: a design left out could be the best (refined "
+                "by an earlier version, which did not re-admit such designs; `sweep refine` on "
+                "this store does)")
+
 
 def part_outcome(reps: np.ndarray, role: np.ndarray, value: np.ndarray, error: np.ndarray,
                  status: int, finest_h: float, margin: float,
-                 bound_held: bool = True) -> PartOutcome:
+                 bound_held: bool = True, widenings: int | None = 0,
+                 n_readmitted: int = 0) -> PartOutcome:
     """A part's outcome from its refinement variables (per-design arrays flat in store order,
-    per-part scalars). `reps`: `equal_r_classes` of the store's designs."""
+    per-part scalars). `reps`: `equal_r_classes` of the store's designs; `widenings` None for a
+    store without `refine_widenings` (refined before the bound check re-admitted designs)."""
     alive = np.flatnonzero(role >= ROLE["near_tie"])
     members = [int(d) for d in alive if reps[d] == d]
     members.sort(key=lambda d: (-value[d], d))
     best = int(np.flatnonzero(role == ROLE["best"])[0]) if (role == ROLE["best"]).any() else -1
     return PartOutcome(REFINE_STATUS_MEANINGS[int(status)], float(finest_h), float(margin), best,
                        int(np.sum(role == ROLE["best"])), members, value, error,
-                       bool(bound_held))
+                       bool(bound_held), None if widenings is None else int(widenings),
+                       int(n_readmitted))

@@ -332,6 +332,26 @@ def _block_items(scene: Scene, b: Block) -> list[np.ndarray]:
     return out
 
 
+def file_kind(path: Path) -> str | None:
+    """Which sweep file `path` is, from its contents: "store", "shard" or "part" (its
+    `sweep_file_kind`), "map" (a map file, `sweep.storage.mapfile`: an energy field and its
+    design), "hdf5" (any other HDF5 file, or one too damaged to tell); None when it is not an
+    HDF5 file. OSError when it cannot be read at all."""
+    if not h5py.is_hdf5(path):
+        return None
+    kinds = {KIND_STORE: "store", KIND_SHARD: "shard", KIND_PART: "part"}
+    try:
+        with h5py.File(path, "r") as f:
+            kind = _str(f.attrs.get("sweep_file_kind", ""))
+            if kind in kinds:
+                return kinds[kind]
+            if "energy" in f and "design" in f.attrs:
+                return "map"
+    except (OSError, KeyError, ValueError):
+        pass
+    return "hdf5"
+
+
 @dataclass
 class StoreView:
     path: Path
@@ -350,6 +370,8 @@ def read_store(path: Path) -> StoreView:
     if not path.is_file():
         raise StoreError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
     try:
+        if not h5py.is_hdf5(path):
+            raise StoreError(f"{path}: not a sweep results store (not an HDF5 file)")
         with h5py.File(path, "r") as f:
             kind = _str(f.attrs.get("sweep_file_kind", ""))
             if kind != KIND_STORE:
@@ -441,7 +463,9 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
                   refined_error=ref.error, refine_role=ref.role, refine_status=ref.status,
                   refine_finest_h=ref.finest_h(), refine_margin=ref.margin,
                   refine_bound_held=ref.bound_held, refine_bound_used=ref.bound_used,
-                  refine_n_contenders=ref.n_contenders)
+                  refine_n_contenders=ref.n_contenders, refine_readmitted=ref.readmitted,
+                  refine_widenings=ref.widenings, refine_n_readmitted=ref.n_readmitted,
+                  refine_bound_widened=ref.bound_widened)
     with atomic_amend(path) as f:
         for fld in REFINE_FIELDS:
             if fld.name in f:
@@ -457,12 +481,16 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
             refine_level_h=[s.level_h(scene.h, k) for k in range(1, s.levels + 1)],
             refine_level_maps=list(ref.level_maps),
             refine_level_seconds=[float(x) for x in ref.level_seconds],
+            refine_widen_maps=int(ref.widen_maps),
             refine_counts=ref.counts(), refine_created_utc=provenance()["created_utc"],
             refine_note="contenders: the refine_min_contenders best designs and those whose "
                         "screened caging area is at least (1 - refine_bound_used) times the "
                         "part's best (equal-R designs, same l1, l2, w and r2/r1, count once); "
                         "recomputed at refine_level_h until the best's lead over every other "
-                        "contender exceeds the change between the last two levels of both "
+                        "contender exceeds the change between the last two levels of both; "
+                        "where the bound check then fails, the designs that could win are "
+                        "re-admitted and recomputed until it holds (refine_widenings, "
+                        "refine_readmitted; refine_widen_maps of the refine_level_maps) "
                         "(docs/sweeps.md)",
             **attrs))
 

@@ -1,0 +1,168 @@
+"""Which classes each refinement level computes and eliminates, worked by hand (model-notes D18,
+D28; docs/sweeps.md, "Refinement").
+
+The maps' caging areas are a table written here, not computed: `batch.caging_areas` is replaced
+by a lookup of (part, design, level), and every call of a level is recorded with its label, so
+each test pins, per level, which classes are computed (the leader first, then the rest), which
+are eliminated without being computed, and what the refinement concludes. The numbers are chosen
+so that each rule decides by a clear margin (0.01 or more), never by a rounding of the last bit;
+the comments work each step by hand.
+
+One part, six classes A..F (designs of distinct R = r2/r1, one per class, in store order), so a
+class is its design index: A = 0, ..., F = 5.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from sweep.config.parse import load_scene
+from sweep.config.scene import RefineSettings
+from sweep.runs import refine as rf
+from sweep.storage.refined import ROLE, STATUS
+
+A, B, C, D, E, F = range(6)
+NAMES = "ABCDEF"
+CONFIG = dict(
+    name="refine-by-hand",
+    designs=dict(l1=[2.0], l2=[1.6], r1=[0.2], r2=[0.04, 0.06, 0.08, 0.1, 0.12, 0.14], w=[0.4]),
+    parts=dict(r=[0.4], mu=[0.4]),
+    grid=dict(h=0.2),
+)
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory):
+    path = tmp_path_factory.mktemp("by-hand") / "by-hand.yaml"
+    path.write_text(yaml.safe_dump(CONFIG))
+    return load_scene(path)
+
+
+def refine_by_table(scene, tmp_path, monkeypatch, screened: dict, levels: dict,
+                    settings: RefineSettings):
+    """Refine one part whose caging areas are `screened` {class: value} and `levels` {level:
+    {class: value}}. Returns (the Refinement, {label: set of class names computed})."""
+    values = np.zeros((len(NAMES), 1))
+    for d, v in screened.items():
+        values[d, 0] = v
+
+    def table(scene_, designs, parts, keys, h):
+        level = int(round(np.log2(scene.h / h)))
+        missing = [NAMES[d] for _, d in keys if d not in levels.get(level, {})]
+        assert not missing, f"level {level} computes {missing}, which the hand-worked case does not"
+        return np.array([levels[level][d] for _, d in keys], dtype=np.float64)
+
+    calls: dict = {}
+    real = rf._run_level
+
+    def recorded(scene_, designs, parts, keys, h, label, work, progress):
+        assert label not in calls, f"level {label} run twice"
+        calls[label] = {NAMES[d] for _, d in keys.tolist()}
+        return real(scene_, designs, parts, keys, h, label, work, progress)
+
+    monkeypatch.setattr(rf, "caging_areas", table)
+    monkeypatch.setattr(rf, "_run_level", recorded)
+    ref = rf.refine_scene(scene, values, settings, tmp_path / "work")
+    return ref, {k: v for k, v in calls.items() if v}
+
+
+def per_class(ref, array) -> dict:
+    return {NAMES[d]: array[d, 0] for d in range(len(NAMES))}
+
+
+def test_leader_first_by_hand(scene, tmp_path, monkeypatch):
+    """Level 1: the floor {A, B} at h/2 changes by at most D = 0.2, so the cut is 9.8 - 3 D =
+    9.2: C and D contend, E and F do not. Separated at level 1 (best A 9.8 +- 0.2, low 9.6): B
+    (9.7 + 0.2) and C (9.6 + 0.1) stay, D (8.9 + 0.4 = 9.3) is eliminated.
+    Level 2, leader first: A 9.76 +- 0.04 (low 9.72); B's last interval reaches 9.9, so B is
+    computed; C's reaches only 9.70: eliminated without being computed at h/4. B 9.65 +- 0.05
+    (up to 9.70 < 9.72) is separated: A alone, certified at h/4; no level 3.
+    Bound check: E 6.0 + the largest rise of a contender (C, +0.1) < 9.72, C (9.70) and D (9.3)
+    below 9.72 too: nothing re-admitted."""
+    ref, calls = refine_by_table(
+        scene, tmp_path, monkeypatch,
+        screened={A: 10.0, B: 9.9, C: 9.5, D: 9.3, E: 6.0, F: 3.0},
+        levels={1: {A: 9.8, B: 9.7, C: 9.6, D: 8.9}, 2: {A: 9.76, B: 9.65}},
+        settings=RefineSettings(levels=3, bound=0.5, min_contenders=2))
+    assert calls == {"1a": {"A", "B"}, "1b": {"C", "D"}, "2a": {"A"}, "2b": {"B"}}
+    assert per_class(ref, ref.level) == dict(A=2, B=2, C=1, D=1, E=0, F=0)
+    assert per_class(ref, ref.role) == dict(A=ROLE["best"], B=ROLE["eliminated"],
+                                            C=ROLE["eliminated"], D=ROLE["eliminated"],
+                                            E=ROLE["screened"], F=ROLE["screened"])
+    value, error = per_class(ref, ref.value), per_class(ref, ref.error)
+    assert [value[k] for k in "ABCD"] == pytest.approx([9.76, 9.65, 9.6, 8.9])
+    assert [error[k] for k in "ABCD"] == pytest.approx([0.04, 0.05, 0.1, 0.4])
+    assert np.isnan(value["E"]) and np.isnan(error["F"])
+    assert ref.status[0] == STATUS["certified"] and ref.finest_level[0] == 2
+    assert ref.margin[0] == pytest.approx(9.76 - 9.65)
+    assert ref.bound_used[0] == pytest.approx(1 - 9.2 / 10.0)
+    assert ref.n_contenders[0] == 4 and ref.bound_held[0]
+    assert ref.widenings[0] == 0 and ref.n_readmitted[0] == 0 and not ref.readmitted.any()
+    assert ref.bound_widened[0] == ref.bound_used[0]
+    assert ref.level_maps == [4, 2] and ref.widen_maps == 0
+
+
+def test_collapsed_leader_re_admits_by_hand(scene, tmp_path, monkeypatch):
+    """The case of configs/small.yaml at r = 0.8 in miniature: the leader's interval at h/2
+    eliminates a class, then the leader collapses by far more than its error estimate.
+    Level 1: floor {A, B}, D = 0.4, cut 6.6 - 1.2 = 5.4: C contends, D and E do not. A 6.6 +- 0.4
+    (low 6.2): B (6.0 + 0.3) stays, C (5.5 + 0.25 = 5.75) is eliminated.
+    Level 2: A 4.7 +- 1.9 (low 2.8), B computed (4.3 +- 1.7), both stay. Level 3: A 4.2 +- 0.5
+    (low 3.7), B computed (3.65 +- 0.65, up to 4.3): a near-tie {A, B} at the cap.
+    Bound check (best low 3.7): the largest change of a contender is C's, -0.25, so D (5.2 -
+    0.25) and E (4.6 - 0.25) could win, F (1.0) not; C, eliminated at h/2 with 5.5 + 0.25, could
+    too. Round 1 recomputes D, E at h/2 and C, D, E at h/4 and h/8; at h/8 C leads, 4.75 +- 0.15
+    (low 4.6): A (4.2 + 0.5) and D (4.35 + 0.3) stay, B (4.3) and E (3.8) are eliminated. Round
+    2: F's 1.0 - 0.85 (D's change now the largest) is far below 4.6: the bound holds."""
+    ref, calls = refine_by_table(
+        scene, tmp_path, monkeypatch,
+        screened={A: 7.0, B: 6.3, C: 5.75, D: 5.2, E: 4.6, F: 1.0},
+        levels={1: {A: 6.6, B: 6.0, C: 5.5, D: 4.9, E: 4.4},
+                2: {A: 4.7, B: 4.3, C: 4.9, D: 4.65, E: 3.8},
+                3: {A: 4.2, B: 3.65, C: 4.75, D: 4.35, E: 3.3}},
+        settings=RefineSettings(levels=3, bound=0.5, min_contenders=2))
+    assert calls == {"1a": {"A", "B"}, "1b": {"C"}, "2a": {"A"}, "2b": {"B"}, "3a": {"A"},
+                     "3b": {"B"}, "w1-1": {"D", "E"}, "w1-2": {"C", "D", "E"},
+                     "w1-3": {"C", "D", "E"}}
+    assert per_class(ref, ref.role) == dict(A=ROLE["near_tie"], B=ROLE["eliminated"],
+                                            C=ROLE["best"], D=ROLE["near_tie"],
+                                            E=ROLE["eliminated"], F=ROLE["screened"])
+    assert per_class(ref, ref.readmitted) == dict(A=False, B=False, C=True, D=True, E=True,
+                                                  F=False)
+    assert per_class(ref, ref.level) == dict(A=3, B=3, C=3, D=3, E=3, F=0)
+    error = per_class(ref, ref.error)
+    assert [error[k] for k in "ABCDE"] == pytest.approx([0.5, 0.65, 0.15, 0.3, 0.5])
+    assert ref.status[0] == STATUS["near_tie"] and ref.finest_level[0] == 3
+    assert ref.margin[0] == pytest.approx(4.75 - 4.35)
+    assert ref.widenings[0] == 1 and ref.n_readmitted[0] == 3 and ref.n_contenders[0] == 5
+    assert ref.bound_held[0]
+    assert ref.bound_used[0] == pytest.approx(1 - 5.4 / 7.0)
+    assert ref.bound_widened[0] == pytest.approx(1 - 4.6 / 7.0)
+    assert ref.level_maps == [5, 5, 5] and ref.widen_maps == 8
+
+
+def test_re_admitted_class_reopens_the_levels_by_hand(scene, tmp_path, monkeypatch):
+    """A part certified at h/2 whose leader rose by more than the cap allows for: bound 0.1
+    (cut 9.0) leaves C (8.8) out; A 11.5 +- 1.5 (low 10.0) eliminates B (8.0 + 1.5): certified
+    at h/2. Bound check: C 8.8 + A's rise 1.5 = 10.3 reaches 10.0, D (8.0 + 1.5) does not. C is
+    re-admitted, computed at h/2 (10.5 +- 1.7, up to 12.2: still in the running), so the part
+    goes on below the cap, leader first: A 11.4 +- 0.1 (low 11.3) at h/4, C computed (its last
+    interval reaches 12.2), 10.6 +- 0.1: eliminated, A certified at h/4. Round 2: D 8.0 + C's
+    rise 1.8 = 9.8 < 11.3, B (9.5) < 11.3: the bound holds."""
+    ref, calls = refine_by_table(
+        scene, tmp_path, monkeypatch,
+        screened={A: 10.0, B: 9.5, C: 8.8, D: 8.0, E: 2.0, F: 1.0},
+        levels={1: {A: 11.5, B: 8.0, C: 10.5}, 2: {A: 11.4, C: 10.6}},
+        settings=RefineSettings(levels=3, bound=0.1, min_contenders=2))
+    assert calls == {"1a": {"A", "B"}, "w1-1": {"C"}, "w1-2a": {"A"}, "w1-2b": {"C"}}
+    assert per_class(ref, ref.level) == dict(A=2, B=1, C=2, D=0, E=0, F=0)
+    assert per_class(ref, ref.role) == dict(A=ROLE["best"], B=ROLE["eliminated"],
+                                            C=ROLE["eliminated"], D=ROLE["screened"],
+                                            E=ROLE["screened"], F=ROLE["screened"])
+    assert ref.status[0] == STATUS["certified"] and ref.finest_level[0] == 2
+    assert ref.margin[0] == pytest.approx(11.4 - 10.6)
+    assert ref.widenings[0] == 1 and ref.n_readmitted[0] == 1 and ref.n_contenders[0] == 3
+    assert ref.bound_used[0] == pytest.approx(0.1)
+    assert ref.bound_widened[0] == pytest.approx(1 - 8.8 / 10.0)
+    assert ref.level_maps == [3, 2] and ref.widen_maps == 3
