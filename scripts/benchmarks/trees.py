@@ -6,6 +6,7 @@ run. Trees rotate (A B, B A, ... ; A B C, B C A, ...) so that the machine's drif
 alike. Prints every repeat's seconds, the medians and the ratio of each tree to the first.
 Workloads (--what):
   - `sweep`: --cells random paper cells (seed 1) x 6 widths at h, summaries (summarize_cells);
+  - `collision`: the same with the finger_collision effect (the collision scene);
   - `maps`: the three maps of `bench.py baseline` at h / 2 (compute_map);
   - `forces`: the same three maps, contact forces off versus on, in the last tree only.
 `git worktree add --detach <dir> <commit>` gives an old tree to compare with. Warm each tree's
@@ -36,19 +37,20 @@ try:
 except ImportError:
     from sweep.batch import summarize_cells
     from sweep.maps import compute_map
-from sweep.model import Accuracy, Command, Design, Grid, Limits, Part
+from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 what, n_cells, h = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
 sample, widths = paper_sample(n_cells), paper_widths()
 maps = [(Design(*d), Part(*p)) for d, p in THREE_MAPS]
 kw = {{"forces": True}} if what == "maps_forces" else {{}}
+effects = Effects(finger_collision=True) if what == "sweep_collision" else Effects()
 def run():
-    if what == "sweep":
-        summarize_cells(sample, widths, Command(), h, Limits(), Accuracy())
+    if what.startswith("sweep"):
+        summarize_cells(sample, widths, Command(), h, Limits(), Accuracy(), effects)
     else:
         for d, p in maps:
             compute_map(d, p, grid=Grid(h=h / 2), **kw)
 # warm up: compile or load the kernels on the same code paths
-summarize_cells(sample[:1], widths, Command(), 0.4, Limits(), Accuracy())
+summarize_cells(sample[:1], widths, Command(), 0.4, Limits(), Accuracy(), effects)
 for d, p in maps:
     compute_map(d, p, grid=Grid(h=0.4), **kw)
 wall, cpu = time.perf_counter(), time.process_time()
@@ -61,8 +63,8 @@ def add_arguments(ap) -> None:
     ap.add_argument("trees", nargs="+", metavar="NAME=TREE",
                     help="a name and a source tree (the folder holding sweep/); the first is "
                          "the reference of the ratios, e.g. before=<old tree> after=.")
-    ap.add_argument("--what", default="sweep,maps,forces",
-                    help="comma-separated workloads: sweep, maps, forces [all three]")
+    ap.add_argument("--what", default="sweep,collision,maps,forces",
+                    help="comma-separated workloads: sweep, collision, maps, forces [all four]")
     ap.add_argument("--h", type=float, default=0.05,
                     help="sweep spacing; the maps use h / 2 [0.05]")
     ap.add_argument("--cells", type=int, default=64, help="paper cells of `sweep` [64]")
@@ -88,8 +90,8 @@ def run(args) -> int:
                              "holding sweep/")
         trees[name] = Path(tree).resolve()
     what = args.what.split(",")
-    if set(what) - {"sweep", "maps", "forces"}:
-        raise SystemExit("bench.py trees: --what takes sweep, maps, forces")
+    if set(what) - {"sweep", "collision", "maps", "forces"}:
+        raise SystemExit("bench.py trees: --what takes sweep, collision, maps, forces")
     header(NAME)
     for name, tree in trees.items():
         print(f"# {name}: {tree}")
@@ -100,6 +102,11 @@ def run(args) -> int:
             f"summaries), h = {args.h}",
             side_by_side(names, lambda k: child_seconds(trees[k], "sweep", args.cells, args.h),
                          args.repeats))
+    if "collision" in what:
+        print_side_by_side(
+            f"the same sample with finger_collision (the collision scene), h = {args.h}",
+            side_by_side(names, lambda k: child_seconds(trees[k], "sweep_collision", args.cells,
+                                                        args.h), args.repeats))
     if "maps" in what:
         print_side_by_side(
             f"three whole maps at h = {args.h / 2} (compute_map)",
