@@ -1195,6 +1195,11 @@ def settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work):
     return fingers_cross(settled_polyline(LEFT, w, cache), settled_polyline(RIGHT, w, cache))
 
 
+# The first entry of a slide context (NumPy booleans: a Python constant in a returned tuple
+# keeps a literal type, and its callees would compile once more).
+NEAR, ALONE = np.bool_(True), np.bool_(False)
+
+
 @entry
 def slide_context(finger, w, collision):
     """What `collide_near` keeps between the positions of one map's slides: the symmetric
@@ -1203,16 +1208,16 @@ def slide_context(finger, w, collision):
     scratch). Unused when the effect is off."""
     work = np.empty(WORK_SIZE)
     if not collision.on:
-        return True, (True, 0.0, -1.0), work
+        return NEAR, (True, 0.0, -1.0), work
     work[HINT] = 5
-    return True, symmetric_meeting(finger, w, collision), work
+    return NEAR, symmetric_meeting(finger, w, collision), work
 
 
 @entry
 def no_slide_context():
     """The context of a position evaluated on its own (`collide`, not `collide_near`): its
     first entry False, the rest of slide_context's types."""
-    return False, (True, 0.0, -1.0), np.empty(0)
+    return ALONE, (True, 0.0, -1.0), np.empty(0)
 
 
 @entry

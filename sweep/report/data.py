@@ -4,6 +4,7 @@ store's own settings."""
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import math
@@ -75,12 +76,14 @@ class StoreData:
     attrs: dict
     manipulation: bool
     _reps: np.ndarray | None = None     # equal-R class of every design (refined stores)
+    _designs: np.ndarray | None = None  # (designs, 5): every design's values, store order
 
-    @property
+    # (read once: each Dataset lookup costs tens of microseconds, and tables read these per row)
+    @functools.cached_property
     def r(self) -> np.ndarray:
         return self.ds["r"].values
 
-    @property
+    @functools.cached_property
     def mu(self) -> np.ndarray:
         return self.ds["mu"].values
 
@@ -93,8 +96,11 @@ class StoreData:
         return self.ds[name].isel(r=ri, mu=mi).transpose(*DESIGN_DIMS).values.reshape(-1)
 
     def design(self, flat: int) -> dict:
-        idx = np.unravel_index(flat, tuple(self.ds[d].size for d in DESIGN_DIMS))
-        return {d: float(self.ds[d].values[i]) for d, i in zip(DESIGN_DIMS, idx)}
+        """The design of flat index `flat` (store order), as {l1: ..., ..., w: ...}."""
+        if self._designs is None:   # (read once: a Dataset lookup per design took seconds)
+            grids = np.meshgrid(*(self.ds[d].values for d in DESIGN_DIMS), indexing="ij")
+            self._designs = np.stack([g.reshape(-1) for g in grids], axis=1)
+        return dict(zip(DESIGN_DIMS, map(float, self._designs[flat])))
 
     @property
     def refined(self) -> bool:

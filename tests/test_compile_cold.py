@@ -1,0 +1,77 @@
+"""A cold compilation, for real (long: `make test-long`, SWEEP_LONG_COMPILE=1; about a minute).
+
+In a new, empty kernel cache: `ensure_compiled` (compute/warm.py) compiles each kernel once,
+with one signature (a second signature would compile the kernel and everything below it again:
+docs/architecture.md, "One compilation for every scene"; `gather_row` copies three dtypes), and
+then `make run`'s commands (both scenes with the refinement, and the report) on a small config
+compile nothing more: no cache file is added."""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+LONG = os.environ.get("SWEEP_LONG_COMPILE", "") not in ("", "0")
+pytestmark = pytest.mark.skipif(not LONG, reason="long profile: SWEEP_LONG_COMPILE=1")
+
+#: Kernels that legitimately have several signatures (their argument dtypes differ by design).
+SEVERAL = {"gather_row": 3}
+
+SIGNATURES = r"""
+import json, numba
+from sweep.compute import warm
+warm.ensure_compiled()
+import sweep.kernels as k
+found = {}
+for name in ("records", "finger", "hand", "field", "streamline", "hull"):
+    module = getattr(k, name)
+    for attr, f in vars(module).items():
+        if isinstance(f, numba.core.registry.CPUDispatcher) and f.__module__ == module.__name__:
+            found[f"{name}.{attr}"] = len(f.signatures)
+print(json.dumps(found))
+"""
+
+
+def cache_files(cache: Path) -> set[str]:
+    return {str(p.relative_to(cache)) for p in cache.rglob("*") if p.suffix in (".nbi", ".nbc")}
+
+
+def test_one_compilation_serves_make_run(tmp_path):
+    cache = tmp_path / "cache"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    out = subprocess.run([sys.executable, "-c", SIGNATURES], env=env, capture_output=True,
+                         text=True, check=True, cwd=ROOT)
+    assert "compiling kernels (first run only" in out.stderr
+    counts = json.loads(out.stdout.strip().splitlines()[-1])
+    several = {name: n for name, n in counts.items() if n > SEVERAL.get(name.split(".")[1], 1)}
+    assert not several, f"kernels compiled with several signatures: {several}"
+    assert sum(counts.values()) > 100   # (the compilation ran here, not from a cache)
+    compiled = cache_files(cache)
+
+    configs = []
+    for name in ("paper", "paper-collision"):
+        config = yaml.safe_load((ROOT / "configs" / f"{name}.yaml").read_text())
+        config["designs"] = {"l1": [1.2, 2.0], "l2": [0.8, 1.6], "r1": [0.12, 0.2],
+                             "r2": [0.06, 0.14], "w": [0.4, 0.8]}
+        config["parts"] = {"r": [0.4, 0.8], "mu": [0.4]}
+        config["grid"]["h"] = 0.2
+        config["run"] = {"sub_chunk_cells": 4}
+        configs.append(tmp_path / f"{name}.yaml")
+        configs[-1].write_text(yaml.safe_dump(config))
+    stores = [tmp_path / f"{c.stem}.h5" for c in configs]
+    for config, store in zip(configs, stores):
+        res = subprocess.run([sys.executable, "-m", "sweep", "run", str(config), "--out",
+                              str(store)], env=env, capture_output=True, text=True, cwd=ROOT)
+        assert res.returncode == 0, res.stderr
+        assert "compiling kernels" not in res.stderr
+    res = subprocess.run([sys.executable, "-m", "sweep", "report", *map(str, stores), "--out",
+                          str(tmp_path / "report")], env=env, capture_output=True, text=True,
+                         cwd=ROOT)
+    assert res.returncode == 0, res.stderr
+    assert cache_files(cache) == compiled, "make run compiled kernels ensure_compiled did not"
