@@ -39,7 +39,7 @@ from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_b
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
                            manipulation_rows, pose_map_part)
 from .stores import open_store
-from .style import pngs
+from .style import png
 from .tip import (CT_COLUMNS, REP_COLUMNS, caging_tip_figure, caging_tip_rows,
                   representative_rows)
 from .usage import USAGE_COLUMNS, usage_figure, usage_rows
@@ -97,18 +97,16 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
         write("refinement.csv", csv_bytes(refinement_rows(rep.best), REFINEMENT_COLUMNS))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
     write("representative_designs.csv", csv_bytes(rep.representatives, REP_COLUMNS))
-    figures = {"best_caging.png": lambda: best_caging_figure(st, rep.best, log),
-               "caging_vs_tip.png": lambda: caging_tip_figure(st, rep.representatives, log)}
     if st.manipulation:
         write("scenario_a_candidates.csv", csv_bytes(rep.candidates, CAND_COLUMNS))
         write("manipulation.csv", csv_bytes(rep.manipulation, MANIP_COLUMNS))
         write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
+        write("parameter_usage.png", png(usage_figure(rep.usage)))
         best = next(c for c in rep.candidates if c["best"])
-        figures["manipulation.png"] = lambda: manipulation_figure(
-            st, rep.manipulation, best, rep.manipulation.index(rep.pose_part), log)
-        figures["parameter_usage.png"] = lambda: usage_figure(rep.usage)
-    for name, data in pngs(figures).items():
-        write(name, data)
+        write("manipulation.png", png(manipulation_figure(
+            st, rep.manipulation, best, rep.manipulation.index(rep.pose_part), log)))
+    write("best_caging.png", png(best_caging_figure(st, rep.best, log)))
+    write("caging_vs_tip.png", png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", text_bytes(markdown(st, rep)))
     finish()
     return rep

@@ -36,7 +36,7 @@ from .manipulation import candidate_rows, manipulation_rows
 from .stores import open_pair
 from .tip import caging_tip_parts, representative_rows
 from .usage import usage_rows
-from .style import pngs
+from .style import png
 
 FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
          "representative_designs.csv", "manipulation.png", "manipulation.csv",
@@ -219,16 +219,14 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     write("best_designs.csv", csv_bytes(rep.best, best_columns(st1, st2)))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
     write("representative_designs.csv", csv_bytes(rep.representatives, REP_COLUMNS))
-    figures = {"best_designs.png": lambda: caging.pair_figure(st1, st2, rep.best, log),
-               "caging_vs_tip.png": lambda: tip.pair_figure(st1, st2, rep)}
     if st1.manipulation:
         write("scenario_a_candidates.csv", csv_bytes(rep.candidates, CAND_COLUMNS))
         write("manipulation.csv", csv_bytes(rep.manipulation, MANIP_COLUMNS))
         write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
-        figures["manipulation.png"] = lambda: manipulation.pair_figure(st1, st2, rep)
-        figures["parameter_usage.png"] = lambda: usage.pair_figure(st1, st2, rep.usage)
-    for name, data in pngs(figures).items():
-        write(name, data)
+        write("parameter_usage.png", png(usage.pair_figure(st1, st2, rep.usage)))
+        write("manipulation.png", png(manipulation.pair_figure(st1, st2, rep)))
+    write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
+    write("best_designs.png", png(caging.pair_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
     finish()
     return rep
