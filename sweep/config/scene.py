@@ -241,7 +241,7 @@ class Scene:
         return hashlib.sha256(text.encode()).hexdigest()
 
     def frozen(self) -> dict:
-        """What a run directory / output file records about the config (habit 8)."""
+        """What a run directory / output file records about the config."""
         return dict(name=self.name, config_hash=self.config_hash, sweep_version=__version__,
                     resolved=self.resolved(), source=self.source,
                     save_maps=list(self.save_maps), sub_chunk_cells=self.sub_chunk_cells,

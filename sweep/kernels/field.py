@@ -23,10 +23,6 @@ The drivers (`finger_rows`, `map_from_fingers`, `summarize_cells`) release the G
 range of rows or cells: the compute layer runs ranges on several threads
 (`sweep.compute.threads`). No `prange`: a parallel loop compiles its whole call tree twice
 more (docs/performance.md, cold compilation).
-
-One module, not four (P14): the import chain from the CLI to the model stays within ten modules
-(tests/test_layers.py); the sections above were the modules point, trajectory, field and
-cells.
 """
 import math
 import numpy as np
@@ -889,7 +885,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     """
     r = finger.r
     # the record's arrays read once: a record field read inside the loop cost a reference-count
-    # pair on the points that `continue` (docs/performance.md, 2026-11-24)
+    # pair on the points that `continue` (docs/performance.md)
     mode, t1, t2 = fingers.mode, fingers.t1, fingers.t2
     point_class, energy, l_open = outs.point_class, outs.energy, outs.l_open
     equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed

@@ -234,7 +234,7 @@ def distal_lever(k2, t2, l1, multiplier):
 
 @entry
 def sticks_on_lower_stop(k2, t1, t2, finger, springs):
-    """MODEL 5.3 (revised 2026-11-22): a distal-only contact with the distal on its lower stop
+    """MODEL 5.3 (revised): a distal-only contact with the distal on its lower stop
     holds iff SOME |mu| <= mu_s gives both g(mu) >= 0 (the stop supplies closing torque) and a
     positive lever L(mu). Since g(mu) = r1 k2 - r2 L(mu), that asks for L(mu) in (0, r1 k2 / r2];
     L(0) = l1 cos t2 + k2 > 0 on the lower stop, so the set is not empty iff k2 > 0 and the

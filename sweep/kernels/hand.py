@@ -32,9 +32,6 @@ bits faster (`resolve_collisions`, model-notes D14 "How a map finds the meeting"
 
 A finger that took the tip path (tip_contact) is stopped on its own path instead
 (model-notes D29, `field.collide_on_own_paths`); `resolve_collisions` leaves such points alone.
-
-One module, not two (P14): the import chain from the CLI to the model stays within ten modules
-(tests/test_layers.py); the sections were the modules part and collision.
 """
 import math
 import numpy as np

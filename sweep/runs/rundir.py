@@ -46,7 +46,7 @@ _SHARD_RE = re.compile(r"^shard-(\d+)-of-(\d+)\.h5$")
 
 @dataclass(frozen=True)
 class RunDir:
-    """Every path of a chunked run directory (habit 9: one object owns the naming)."""
+    """Every path of a chunked run directory (one object owns the naming)."""
 
     root: Path
 
