@@ -192,7 +192,9 @@ def rigid_distal_tangency(dx, dy, l1, l2, r, th2_min, rest=0.0):
     dk += 4.0 * EPS * (dist + l1)
     dt = dk / r_prime + 8.0 * EPS
     if within(k2, 0.0, l2, dk) and within(t1, rest, PI, dt):
-        return clamp(t1, 0.0, PI), clamp(k2, 0.0, l2), t1, RANGE_TOL + dt
+        # within its round-off of B the contact is at B (k2 = 0), where it cannot stick (D30)
+        k2 = clamp(k2, 0.0, l2) if k2 > RANGE_TOL + dk else 0.0
+        return clamp(t1, 0.0, PI), k2, t1, RANGE_TOL + dt
     return None
 
 

@@ -756,7 +756,9 @@ def closing_contact(dx, dy, finger, effects):
     if -slack_k2 <= k2c <= l2 + slack_k2 and rest - slack_t1 <= t1c <= math.pi + slack_t1:
         best_t1 = t1c
         mode = DISTAL_ON_LOWER_STOP
-        k2_out = clamp(k2c, 0.0, l2)
+        # within its round-off of B the contact is at B, where it cannot stick (D10, D30):
+        # round-off must not decide between sticking and sliding
+        k2_out = clamp(k2c, 0.0, l2) if k2c > slack_k2 else 0.0
     # A vertex wins only if strictly earlier: at a tie the tangency covers the link's end.
     t_b = joint_strike_angle(dx, dy, l1, r)
     if in_range(t_b, rest, math.pi) and t_b < best_t1 - slack_t1:
