@@ -17,11 +17,20 @@ D13 allows) and forces. At every feasible grid point of every map:
   the energy at a point (to the resolution of docs/stability.md's `mu = 1e6` row); contacts on
   the disc and `k2 = l1 - k1` in two-phalanx contact.
 
-Examples: ACCEPTED_EXAMPLES (default 25, about 20 s with compiled kernels);
-SWEEP_LONG_PROPERTIES=1 runs the long profile (1,000 random examples).
+The edges (model-notes D30): the same draws moved to the edges of the accepted space
+(edge_case): joint limits at the extremes the validation accepts, and a grid point put exactly
+(or within a few ulps) on a graze of B, a tangency at k = 0 or k = l, the reach's boundary or the
+finger's joint; the invariants above hold there too, a limit and the same limit 1e-12 inside it
+give the same map, and along a move of a limit by 1e-9 no outcome flips back and forth and the
+energy moves continuously where the outcome does not switch (check_limit_moves).
+
+Examples: ACCEPTED_EXAMPLES (default 25, about 20 s with compiled kernels), EDGE_EXAMPLES
+(default 8, a few seconds); SWEEP_LONG_PROPERTIES=1 runs the long profile (1,000 random
+examples each).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 
@@ -30,6 +39,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
+from sweep.compute.layout import finger_offsets, map_grid
 from sweep.compute.maps import compute_map
 from sweep.model import (
     INFEASIBLE,
@@ -46,6 +56,7 @@ from sweep.model import (
     Effects,
     Grid,
     Limits,
+    ModelInputError,
     Outputs,
     Part,
     validate_inputs,
@@ -58,6 +69,8 @@ EXAMPLES = 1000 if LONG else int(os.environ.get("ACCEPTED_EXAMPLES", "25"))
 #: seconds, which the long profile pays; the bounded one (make test, CI's 10 minutes) stops at
 #: 1e-3, still ten times finer than any config of the project.
 STEP_FLOOR = 1e-4 if LONG else 1e-3
+#: Examples of the edge draws (edge_case): each runs about ten maps (the limit moves)
+EDGE_EXAMPLES = 1000 if LONG else int(os.environ.get("EDGE_EXAMPLES", "8"))
 # The long profile does not shrink a failure (an example costs up to seconds; the failing case
 # is printed as drawn, with its note).
 PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not LONG, database=None,
@@ -281,6 +294,212 @@ def check_friction_monotone(case, m):
 
 
 # ---------------------------------------------------------------------------------------------
+# The edges of the accepted space (model-notes D30)
+# ---------------------------------------------------------------------------------------------
+#: theta2_min just above -90 deg (the validation refuses -90), at 0, a hair below 0, anywhere
+EDGE_THETA2_MIN = st.sampled_from([-90.0 + 10.0 ** -k for k in (1, 3, 5, 7, 9, 11, 13)]
+                                  + [0.0, -1e-12, -5.0]) | st.floats(-89.9999, 0.0)
+#: what the edge draws put at a grid point of the right finger (EDGE_SNAPS's docstrings)
+EDGE_SNAPS = ("b-graze", "tangent-at-b", "tangent-at-tip", "proximal-at-b",
+              "two-phalanx-at-tip", "reach", "joint", "distal-at-max", "distal-at-min", "none")
+#: how many grid points an edge map may have before it is windowed around the snapped point
+EDGE_MAX_POINTS = 1500
+
+
+def snap(kind, design, part, limits, dx, dy):
+    """The design or limits that put the point d = (dx, dy) of the right finger's frame at an
+    edge of MODEL 3-4, in closed forms of this test's own (None where the kind does not apply):
+    b-graze: B's circle about J touches the disc from outside (|d| = l1 + r); tangent-at-b: the
+    rigid sweep's distal tangency (3.3) exactly at B (k2 = 0: |d|^2 = l1^2 + r^2 + 2 r l1 s,
+    s = sin(-theta2_min)); tangent-at-tip: the same at the tip (k2 = l2); proximal-at-b: the
+    proximal tangency at B (k1 = l1); two-phalanx-at-tip: two-phalanx contact at the tip
+    (k2 = l1 - k1 = l2, MODEL 3.4); reach: the tip's circle in the rigid sweep touches the disc
+    from outside (the reach's boundary); distal-at-max / -min: the two-phalanx contact's t2
+    (pi - 2 atan2(r, l1 - k1)) is the joint limit."""
+    l1, l2, r = design.l1, design.l2, part.r
+    dist = math.hypot(dx, dy)
+    if dist <= r * (1.0 + 1e-9):
+        return None
+    s, c = math.sin(-limits.theta2_min), math.cos(limits.theta2_min)
+    k1 = math.sqrt(dist * dist - r * r)
+    if kind == "b-graze":
+        return {"l1": dist - r}
+    if kind == "tangent-at-b":
+        return {"l1": -r * s + math.sqrt(r * r * s * s + dist * dist - r * r)}
+    if kind == "tangent-at-tip":
+        r_eff = r + l1 * s
+        if dist <= r_eff:
+            return None
+        k2 = math.sqrt(dist * dist - r_eff * r_eff) - l1 * c
+        return {"l2": k2} if k2 > 0 else None
+    if kind == "proximal-at-b":
+        return {"l1": k1}
+    if kind == "two-phalanx-at-tip":
+        return {"l2": l1 - k1} if k1 < l1 else None
+    if kind == "reach":
+        rho = dist - r   # l2^2 + 2 l1 c l2 + l1^2 - rho^2 = 0
+        disc = l1 * l1 * c * c - l1 * l1 + rho * rho
+        l2_new = -l1 * c + math.sqrt(disc) if disc >= 0 else -1.0
+        return {"l2": l2_new} if l2_new > 0 else None
+    if kind in ("distal-at-max", "distal-at-min"):
+        t1 = math.atan2(dy, dx) - math.atan2(r, k1)
+        if not (k1 < l1 and 0.0 <= t1 <= math.pi):
+            return None
+        t2 = math.degrees(math.pi - 2.0 * math.atan2(r, l1 - k1))
+        if kind == "distal-at-max":
+            return {"theta2_max_deg": t2} if limits.theta2_min_deg < t2 <= 180.0 else None
+        return {"theta2_min_deg": t2} if -90.0 < t2 <= 0.0 and t2 < limits.theta2_max_deg else None
+    return None
+
+
+@st.composite
+def edge_case(draw):
+    """A map of accepted_case moved to the edges of the accepted space: joint limits at the
+    extremes the validation accepts, and one grid point of the right finger put exactly (or
+    within a few ulps) at an edge of the closing sequence (snap), or the part touching the
+    finger's joint (joint). Falls back to the limits alone where a snap does not apply."""
+    case = draw(accepted_case())
+    th2min = draw(EDGE_THETA2_MIN)
+    th2max = draw(st.sampled_from([180.0, 90.0, 180.0 - 1e-12, "span"])
+                  | st.floats(th2min + 1e-9, 180.0))
+    if th2max == "span":
+        th2max = th2min + draw(st.sampled_from([1e-12, 1e-9, 1e-6, 1e-3]))
+    th2max = min(max(th2max, math.nextafter(th2min, math.inf)), 180.0)
+    limits = Limits(theta2_min_deg=th2min, theta2_max_deg=th2max)
+    design, part, grid = case["design"], case["part"], case["grid"]
+    kind = draw(st.sampled_from(EDGE_SNAPS))
+    ulps = draw(st.sampled_from([0, 0, 0, 1, -1, 3, -3]))
+    what = "limits"
+    if kind == "joint":
+        g = map_grid(design, part, grid)
+        i = draw(st.integers(0, max(0, int(g.i.max()))))
+        w = 2.0 * i * grid.h * (1.0 + ulps * 2.0 ** -52)
+        if w > 0:
+            design = dataclasses.replace(design, w=w)
+            what = f"joint: part touching the right finger's joint under column {i}"
+    elif kind != "none":
+        g = map_grid(design, part, grid)
+        ii = draw(st.integers(0, len(g.i) - 1))
+        jj = draw(st.integers(0, len(g.y) - 1))
+        dx = float(finger_offsets(g.i, design.w, g.h)[1][ii])
+        dy = float(g.y[jj])
+        change = snap(kind, design, part, limits, dx, dy)
+        if change:
+            key, value = next(iter(change.items()))
+            value *= 1.0 + ulps * 2.0 ** -52
+            if key in ("l1", "l2"):
+                design = dataclasses.replace(design, **{key: value})
+            else:
+                limits = dataclasses.replace(limits, **{key: value})
+            what = f"{kind} at (x, y) = ({g.x[ii]!r}, {dy!r}): {key} = {value!r}"
+            # keep the point on the grid and the map small: a window about it if needed
+            x0, y0 = float(g.x[ii]), dy
+            full = map_grid(design, part, Grid(h=grid.h))
+            inside = full.x[0] <= x0 <= full.x[-1] and y0 <= full.y[-1]
+            if not inside or full.x.size * full.y.size > EDGE_MAX_POINTS:
+                grid = Grid(h=grid.h, xlim=(x0 - 4 * grid.h, x0 + 4 * grid.h),
+                            ylim=(max(part.r, y0 - 4 * grid.h), y0 + 4 * grid.h))
+    effects = case["effects"]
+    if effects.joint_springs:
+        tension = min(case["command"].f_left, case["command"].f_right)
+        span2 = limits.theta2_max - limits.theta2_min
+        effects = dataclasses.replace(effects, spring_k2=min(
+            effects.spring_k2, 0.999 * tension * design.r2 / span2))
+    try:
+        validate_inputs(design, part, case["command"], limits, case["accuracy"], effects)
+    except ModelInputError:
+        return case   # a snap the validation refuses (lengths of too many scales): as drawn
+    return {**case, "design": design, "limits": limits, "effects": effects, "grid": grid,
+            "edge": what}
+
+
+def moved_limit(case, name, delta):
+    """`case` with the joint limit `name` (a Limits field in degrees) moved by `delta` radians,
+    or None where the validation refuses it or the move vanishes in round-off."""
+    limits = case["limits"]
+    new = dataclasses.replace(limits, **{name: getattr(limits, name) + math.degrees(delta)})
+    if new == limits:
+        return None
+    try:
+        validate_inputs(case["design"], case["part"], case["command"], new, case["accuracy"],
+                        case["effects"])
+    except ModelInputError:
+        return None
+    return {**case, "limits": new}
+
+
+def outcome_key(m):
+    """(class, left mode, right mode) per point: what a move of a limit may switch."""
+    f = m.fields
+    return np.stack([f["point_class"], f["finger_mode"][0], f["finger_mode"][1]])
+
+
+def energy_resolution(case, *maps):
+    """How far two maps' energies may differ where their outcomes agree (per unit tension): a
+    stuck contact is located to root_tol in t1 (D4), so its energy to root_tol (r1 + r2 (1 +
+    10 l1 / k2)), k2 the least contact length of either map (check_friction_monotone)."""
+    d = case["design"]
+    k2 = np.minimum.reduce([np.where(m.fields["k2"] > 0, m.fields["k2"], np.inf).min(axis=0)
+                            for m in maps])
+    root_tol = max(case["accuracy"].root_tol, 1e-12)
+    return root_tol * (d.r1 + d.r2 * (1.0 + 10.0 * d.l1 / k2))
+
+
+#: the limit moves: (Limits field, the direction into the accepted range)
+LIMIT_MOVES = (("theta2_min_deg", 1.0), ("theta2_max_deg", -1.0))
+
+
+def check_limit_moves(case, m):
+    """A limit and the same limit 1e-12 inside it give the same map (MODEL 5.5's slack: classes
+    and modes equal, energies to the limit's move and the energy's resolution); along a move of
+    1e-9 into the range (three equal steps) every map keeps its links out of the part, each
+    point's outcome switches at most once (a threshold of the model crossed, never back and
+    forth: a flip is a decision taken by round-off), and where it does not switch the energy
+    moves continuously. "1e-12" is radians at the finger's scale: the length tests of MODEL 3
+    are inclusive by an absolute 1e-12, which an angle's move of 1e-12 shifts by 1e-12 times
+    the lengths, so the move is 1e-12 / max(1, l1 + l2 + r)."""
+    d = case["design"]
+    cmd = case["command"]
+    tension = max(cmd.f_left, cmd.f_right)
+    inside = 1e-12 / max(1.0, d.l1 + d.l2 + case["part"].r)
+    for name, sign in LIMIT_MOVES:
+        near = moved_limit(case, name, sign * inside)
+        if near is not None:
+            mn = run(near)
+            same = outcome_key(m) == outcome_key(mn)
+            assert same.all(), _where(f"{name} moved 1e-12 inside changes the outcome", m,
+                                      ~same.all(axis=0), 0, None)
+            tol = tension * ((d.r1 + d.r2) * 1e-9 + 2.0 * energy_resolution(case, m, mn))
+            jump = np.abs(m.fields["energy"] - mn.fields["energy"]) > tol
+            assert not jump.any(), _where(f"{name} moved 1e-12 inside moves the energy", m,
+                                          jump, 0, None)
+        maps = [m]
+        for k in (1, 2, 3):
+            c = moved_limit(case, name, sign * k * 1e-9 / 3.0)
+            if c is None:
+                break
+            maps.append(run(c))
+            check_map(c, maps[-1])
+        if len(maps) < 2:
+            continue
+        keys = [outcome_key(x) for x in maps]
+        switches = sum((a != b).any(axis=0).astype(int) for a, b in zip(keys, keys[1:]))
+        assert not (switches > 1).any(), _where(
+            f"the outcome flips back and forth along a 1e-9 move of {name}", m, switches > 1,
+            0, None)
+        if case["effects"].finger_collision:
+            # where the fingers meet is a threshold the outcome codes do not show (a finger
+            # stopped by the other keeps its mode), so its jumps are not told from continuity
+            continue
+        same = (keys[0] == keys[-1]).all(axis=0)
+        tol = tension * ((d.r1 + d.r2) * 1e-6 + 2.0 * energy_resolution(case, maps[0],
+                                                                           maps[-1]))
+        jump = same & (np.abs(maps[0].fields["energy"] - maps[-1].fields["energy"]) > tol)
+        assert not jump.any(), _where(f"the energy jumps along a 1e-9 move of {name}", m, jump,
+                                      0, None)
+
+
+# ---------------------------------------------------------------------------------------------
 # Cases the long profile found (docs/stability.md)
 # ---------------------------------------------------------------------------------------------
 def test_tip_path_ends_where_the_distal_link_reaches_the_disc_at_the_tip():
@@ -406,6 +625,33 @@ def test_physical_invariants_hold_over_the_accepted_space():
         m = run(case)
         check_map(case, m)
         check_model_11(case, m)
+
+    check()
+
+
+def test_no_link_through_the_part_at_the_edges_of_the_accepted_space():
+    """The invariants of test_physical_invariants_hold_over_the_accepted_space on maps drawn at
+    the edges (edge_case): joint limits at the extremes the validation accepts, a grid point
+    put on a graze of B, a tangency at k = 0 or k = l, the reach's boundary or the finger's
+    joint (model-notes D30)."""
+    @settings(PROFILE, max_examples=EDGE_EXAMPLES)
+    @given(edge_case())
+    def check(case):
+        note(repr(case))
+        m = run(case)
+        check_map(case, m)
+        check_model_11(case, m)
+
+    check()
+
+
+def test_limits_at_the_edges_agree_with_the_limit_just_inside_and_move_continuously():
+    """check_limit_moves on maps drawn at the edges (edge_case)."""
+    @settings(PROFILE, max_examples=EDGE_EXAMPLES)
+    @given(edge_case())
+    def check(case):
+        note(repr(case))
+        check_limit_moves(case, run(case))
 
     check()
 
