@@ -372,6 +372,8 @@ def naive_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
     def reconfigured(t1_0):
         mode, t1, t2, k2 = reconfigure(dx, dy, t1_0, l1, l2, r1, r2, r, mu, theta2_max,
                                        reconfig_step, root_tol)
+        if mode == DISTAL_ONLY:   # 3.2 near B carries round-off: within the lower stop (D30)
+            t2 = max(t2, theta2_min)
         return _result(mode, t1, t2, 0.0, k2)
 
     kind, t1, k = rigid_sweep(dx, dy, l1, l2, r, theta2_min)

@@ -569,7 +569,10 @@ def test_reconfiguration_stops_where_the_reference_stops(c):
     # both brackets end where the event holds and are at most root_tol wide (D4, D19)
     assert abs(got.t1 - ref_t1) <= c["root_tol"] + 4e-16, (got, ref_t1)
     t2, k2 = distal_tangent_state(c["dx"], c["dy"], got.t1, c["l1"], c["r"])
-    assert got.t2 == pytest.approx(min(t2, c["th2_max"]), abs=1e-12)
+    expected_t2 = min(t2, c["th2_max"])
+    if got.mode == DISTAL_ONLY:   # 3.2 near B carries round-off: within the lower stop (D30)
+        expected_t2 = max(expected_t2, c["th2_min"])
+    assert got.t2 == pytest.approx(expected_t2, abs=1e-12)
     assert got.k2 == pytest.approx(k2, abs=1e-12 * (c["l1"] + c["r"]))
     assert got.k1 == 0.0
     # the reported state satisfies its stop (D4: the bracket end where the event holds)

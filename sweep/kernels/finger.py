@@ -850,8 +850,10 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     if event == SLIP:
         return past_the_tip(effects.tip_contact, dx, dy, t1, t2, k2, finger, solver,
                             effects.joint_springs)
-    # the bracket end may lie past the distal stop by up to root_tol: report the stop itself
-    return FingerState(DISTAL_ONLY, t1, min(t2, finger.theta2_max), 0.0, k2, False)
+    # the bracket end may lie past the distal stop by up to root_tol: report the stop itself;
+    # and a contact near B, where 3.2's angle carries round-off, within the lower stop (D30)
+    return FingerState(DISTAL_ONLY, t1, clamp(t2, finger.theta2_min, finger.theta2_max), 0.0,
+                       k2, False)
 
 
 @njit(cache=True)
