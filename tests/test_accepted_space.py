@@ -617,6 +617,154 @@ def test_a_part_touching_the_joint_within_round_off_rests_on_the_open_proximal_l
     check_map(case, run(case))
 
 
+# ---------------------------------------------------------------------------------------------
+# Graze and tangency decisions at the edges (model-notes D30): each with a case of the scan
+# (scripts/edge_scan.py) or of the edge draws, against brute-force geometry, the reference or
+# the model's own invariance, never against the kernel's earlier output
+# ---------------------------------------------------------------------------------------------
+#: theta2_min = -89.9999999 deg: B's circle about J touches the disc from outside (|d| = l1 + r)
+#: while the distal link, all but perpendicular to the proximal one, comes tangent at B
+D30_GRAZE = dict(dx=0.9, dy=1.2, l1=1.0, l2=1.0, r=0.5, theta2_min=math.radians(-89.9999999),
+                 theta2_max=math.radians(90.0))
+
+
+def first_contact_by_brute_force(dx, dy, l1, l2, r, theta2_min):
+    """(t1, arc length along J-B-T) of the rigid sweep's first contact, by dense sampling of
+    the link-disc distance (tests/test_closing_bruteforce.py; no closed forms)."""
+    from test_closing_bruteforce import brute_rigid
+    return brute_rigid(dx, dy, l1, l2, r, theta2_min)
+
+
+def links_clear_of_the_part(dx, dy, l1, l2, r, state):
+    j, b, t = finger_points(Design(l1, l2, 1.0, 1.0, 0.0), np.array(state.t1),
+                            np.array(state.t2), 1)
+    return min(segment_distance(dx, dy, j, b), segment_distance(dx, dy, b, t)) / r - 1.0
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3, 1e9])
+def test_a_graze_of_b_with_the_distal_link_cutting_in_is_the_first_contact(scale):
+    """MODEL 4 (revised 2026-11-27), D30: at D30_GRAZE the rigid sweep's distal tangency (3.3)
+    lies at k2 = 0 as B grazes the disc; through asin(r'/|d|) near 1 it came out k2 = -1e-8
+    and was rejected, the graze of B was ignored (D3), and the finger swept on until its tip
+    struck at t1 = 1.3729 with its distal link 0.29 r inside the part (every scale from 1e-3
+    up). Brute force: the first contact is at t1 = atan2(dy, dx), at B. The tangency wins the
+    tie (D3) as a contact at B (k2 = 0), which cannot stick and slides (D10, D15); the settled
+    finger keeps its links out of the part, as the reference says, at every scale."""
+    from kernel_calls import closing, solve
+    from naive import naive_finger
+    from sweep.kernels.finger import DISTAL_ON_LOWER_STOP
+
+    c = D30_GRAZE
+    tb, ub = first_contact_by_brute_force(c["dx"], c["dy"], c["l1"], c["l2"], c["r"],
+                                          c["theta2_min"])
+    assert tb == pytest.approx(math.atan2(c["dy"], c["dx"]), abs=1e-6) and ub == pytest.approx(
+        c["l1"], abs=1e-6)
+    dx, dy, l1, l2, r = (scale * c[k] for k in ("dx", "dy", "l1", "l2", "r"))
+    first = closing(dx, dy, l1, l2, r, c["theta2_min"], c["theta2_max"])
+    assert first.mode == DISTAL_ON_LOWER_STOP and first.k2 == 0.0
+    assert first.t1 == pytest.approx(tb, abs=1e-6)
+    args = (dx, dy, l1, l2, 0.2, 0.1, r, 0.4, c["theta2_min"], c["theta2_max"])
+    final = solve(*args, 0.01, 1e-12)
+    assert links_clear_of_the_part(dx, dy, l1, l2, r, final) >= -LINK_TOL
+    ref = naive_finger(*args)
+    assert final.mode == ref["mode"] and final.t1 == pytest.approx(ref["t1"], abs=1e-9)
+
+
+def test_a_map_at_the_graze_of_b_has_no_link_through_the_part_and_the_reference_energy():
+    """The issue's case on a map (D30): l1 = l2 = 1, r = 0.5, theta2_min = -89.9999999 deg, the
+    point (0, 1.5) on both fingers' graze circle (|d| = l1 + r). It was VERTEX with both distal
+    links 0.146 (0.29 r) inside the part and an energy 0.089 below the model's; now every
+    link is clear and the energy there is the reference's (tests/naive.py)."""
+    from naive import naive_point
+
+    case = dict(design=Design(1.0, 1.0, 0.1, 0.05, 0.0), part=Part(0.5, 0.4),
+                command=Command(1.0, 1.0),
+                limits=Limits(theta2_min_deg=-89.9999999, theta2_max_deg=90.0),
+                accuracy=Accuracy(), effects=Effects(), outputs=Outputs(), grid=Grid(h=0.1))
+    m = run(case)
+    check_map(case, m)
+    i = int(np.argmin(np.abs(m.x)))
+    j = int(np.argmin(np.abs(m.y - 1.5)))
+    assert m.x[i] == 0.0 and m.y[j] == pytest.approx(1.5, abs=1e-15)
+    ref = naive_point(0.0, m.y[j], 1.0, 1.0, 0.1, 0.05, 0.0, 0.5, 0.4,
+                      theta2_min=case["limits"].theta2_min,
+                      theta2_max=case["limits"].theta2_max)
+    assert m.fields["point_class"][j, i] == ref["point_class"] == REACHED
+    assert m.fields["energy"][j, i] == pytest.approx(ref["energy"], abs=1e-9)
+
+
+def test_a_distal_link_tangent_at_b_after_a_proximal_contact_at_b_is_a_two_phalanx_contact():
+    """D30, MODEL 3.2 within its round-off; case of the scan: theta2_min = 0 (the extreme the
+    validation accepts), the proximal link tangent at B (k1 = l1), so the distal closes from its
+    lower stop tangent at B (k2 = 0, t2 = 0 by MODEL 3.4). t2 came out below 0 by round-off,
+    3.2 was rejected and the distal link closed to theta2_max = 5.2 deg, 0.4% of r into the
+    part (PROXIMAL_ONLY, unflagged). Brute force: the distal link meets the disc at t2 = 0,
+    at B."""
+    from kernel_calls import closing
+    from test_closing_bruteforce import brute_close_distal
+
+    dx, dy, l1, l2, r = (0.8023191403825144, 0.10679381955143356, 0.8037489932390243,
+                         1.1305086829984365, 0.09543835070658839)
+    th2min, th2max = 0.0, 0.09084757333401475
+    first = closing(dx, dy, l1, l2, r, th2min, th2max)
+    t2b, sb = brute_close_distal(dx, dy, first.t1, l1, l2, r, th2min, th2max)
+    assert first.mode == TWO_PHALANX and first.k1 == l1
+    assert first.t2 == pytest.approx(t2b, abs=1e-6) and first.k2 == pytest.approx(sb, abs=1e-6)
+    assert links_clear_of_the_part(dx, dy, l1, l2, r, first) >= -LINK_TOL
+
+
+@pytest.mark.parametrize("t1", [0.1, 0.5, 0.7, 1.1])
+def test_a_proximal_tangency_at_b_is_decided_alike_at_every_scale(t1):
+    """D30, MODEL 3.1's k1 <= l1 within its round-off: the proximal link tangent at B (k1 = l1,
+    MODEL 5.5: valid, inclusive), then the distal tangent at B too (3.2: k2 = 0, t2 = 0): a
+    two-phalanx contact at every scale. With the absolute RANGE_TOL alone, round-off decided it
+    at scales 1e6 and 1e9 (k1 = l1 + 1e-10): a strike of B (VERTEX) instead."""
+    from kernel_calls import closing
+
+    for scale in (1.0, 1e6, 1e9):
+        l1, l2, r = 2.0 * scale, 1.6 * scale, 0.4 * scale
+        dx, dy = l1 * math.cos(t1) - r * math.sin(t1), l1 * math.sin(t1) + r * math.cos(t1)
+        first = closing(dx, dy, l1, l2, r, math.radians(-5.0), math.radians(90.0))
+        assert first.mode == TWO_PHALANX and first.k1 == l1, scale
+        assert first.t1 == pytest.approx(t1, abs=1e-12), scale
+
+
+@pytest.mark.parametrize("dx", [0.05, 0.2, 0.5])
+def test_a_part_dipping_below_the_palm_line_touches_the_open_finger(dx):
+    """D30: the feasibility test accepts a part up to RANGE_TOL below the palm row (off the
+    grid, where slides go); 9e-13 below, the proximal tangency's angle came out -4.5e-12 (for
+    dx = 0.2), beyond RANGE_TOL: rejected, the finger swept on through the part and B struck
+    at t1 = 0.927 (VERTEX) with the proximal link inside. Brute force: the open finger
+    (t1 = 0) already touches the part, on its proximal link at dx."""
+    from kernel_calls import closing
+
+    dy, l1, l2, r, th2min = 0.5 - 9e-13, 1.0, 1.0, 0.5, math.radians(-5.0)
+    tb, ub = first_contact_by_brute_force(dx, dy, l1, l2, r, th2min)
+    assert tb == 0.0 and ub == pytest.approx(dx, abs=1e-6)
+    first = closing(dx, dy, l1, l2, r, th2min, math.radians(90.0))
+    assert first.mode in (PROXIMAL_ONLY, TWO_PHALANX)
+    assert first.t1 == 0.0 and first.k1 == pytest.approx(dx, abs=1e-9)
+
+
+def test_a_distal_contact_within_round_off_of_b_does_not_stick_by_round_off():
+    """D30; found by the edge draws: theta2_min = -89.9 deg and the same limit 1e-12 rad inside
+    it gave the rigid sweep's distal tangency at B as k2 = 6.8e-15 and k2 = -5.5e-14 (clamped
+    to 0): the first stuck on its lower stop (D10 needs k2 > 0), the second slid to the tip
+    (SLIPPED), an energy 0.028 apart at three points of the map. Within its round-off of B
+    the contact is at B (k2 = 0) for both: the same settled finger."""
+    from kernel_calls import solve
+
+    l1, l2, r1, r, mu = (2.177854728095023, 0.11692176841063112, 0.015947959508975977,
+                         0.09703530199542944, 0.09703530199542944)
+    dx, dy = 1.55934056419791, 1.6563758661933394
+    th2min, th2max = math.radians(-89.9), math.pi
+    states = [solve(dx, dy, l1, l2, r1, r1, r, mu, th2min + move, th2max, 0.01, 1e-12)
+              for move in (0.0, 1e-12)]
+    assert states[0].mode == states[1].mode
+    assert states[0].t1 == pytest.approx(states[1].t1, abs=1e-9)
+    assert states[0].t2 == pytest.approx(states[1].t2, abs=1e-9)
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())
