@@ -256,7 +256,7 @@ def _where(what, m, bad, side, dist):
 def check_model_11(case, m):
     f = m.fields
     cmd = case["command"]
-    if cmd.f_left == cmd.f_right:
+    if cmd.f_left == cmd.f_right and case["grid"].xlim is None:   # a window may be lopsided
         assert np.array_equal(f["point_class"], f["point_class"][:, ::-1])
         assert np.array_equal(f["finger_mode"][0], f["finger_mode"][1][:, ::-1])
         assert np.allclose(f["energy"], f["energy"][:, ::-1], rtol=1e-12, atol=0,
@@ -450,8 +450,12 @@ LIMIT_MOVES = (("theta2_min_deg", 1.0), ("theta2_max_deg", -1.0))
 
 
 def check_limit_moves(case, m):
-    """A limit and the same limit 1e-12 inside it give the same map (MODEL 5.5's slack: classes
-    and modes equal, energies to the limit's move and the energy's resolution); along a move of
+    """A limit and the same limit 1e-12 inside it give the same map (MODEL 5.5's slack: the
+    same finger configurations and energies, to the limit's move and the energy's resolution,
+    and the same classes and modes except where two of the model's events tie exactly and
+    leave the fingers in the same place, e.g. g = 0 exactly at theta2_max = 90 deg with r1 = r2
+    and a proximal contact at the joint: two-phalanx, sticking, or distal-only on the proximal
+    stop, the same angles); along a move of
     1e-9 into the range (three equal steps) every map keeps its links out of the part, each
     point's outcome switches at most once (a threshold of the model crossed, never back and
     forth: a flip is a decision taken by round-off), and where it does not switch the energy
@@ -466,10 +470,14 @@ def check_limit_moves(case, m):
         near = moved_limit(case, name, sign * inside)
         if near is not None:
             mn = run(near)
-            same = outcome_key(m) == outcome_key(mn)
-            assert same.all(), _where(f"{name} moved 1e-12 inside changes the outcome", m,
-                                      ~same.all(axis=0), 0, None)
             tol = tension * ((d.r1 + d.r2) * 1e-9 + 2.0 * energy_resolution(case, m, mn))
+            moved = np.zeros(m.fields["energy"].shape, dtype=bool)
+            for key in ("theta1", "theta2"):
+                moved |= (np.abs(m.fields[key] - mn.fields[key]) > 1e-9).any(axis=0)
+            relabelled = (outcome_key(m) != outcome_key(mn)).any(axis=0)
+            assert not (relabelled & moved).any(), _where(
+                f"{name} moved 1e-12 inside changes the outcome", m, relabelled & moved, 0,
+                None)
             jump = np.abs(m.fields["energy"] - mn.fields["energy"]) > tol
             assert not jump.any(), _where(f"{name} moved 1e-12 inside moves the energy", m,
                                           jump, 0, None)
