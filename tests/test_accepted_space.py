@@ -434,6 +434,22 @@ def outcome_key(m):
     return np.stack([f["point_class"], f["finger_mode"][0], f["finger_mode"][1]])
 
 
+def near_b(case, *maps):
+    """Points where a finger of any of the maps has a distal contact within 1e-6 of the finger's
+    size from B. There the edge path's stick test (MODEL 5.3) reads 3.2 at a tangent length of
+    round-off size, whose angle carries up to 1e-8 (D30): whether the contact sticks right at B
+    or slides on is decided by that round-off (left as it is, docs/stability.md), and a contact
+    a hair from B that sticks on the lower stop against one at B that cannot (D10, D30) is a
+    threshold the outcome codes do not show. Their energies are not compared."""
+    d = case["design"]
+    size = 1e-6 * (d.l1 + d.l2 + case["part"].r)
+    out = np.zeros(maps[0].fields["energy"].shape, dtype=bool)
+    for m in maps:
+        k2 = m.fields["k2"]
+        out |= ((k2 > 0) & (k2 < size)).any(axis=0)
+    return out
+
+
 def energy_resolution(case, *maps):
     """How far two maps' energies may differ where their outcomes agree (per unit tension): a
     stuck contact is located to root_tol in t1 (D4), so its energy to root_tol (r1 + r2 (1 +
@@ -459,11 +475,17 @@ def check_limit_moves(case, m):
     1e-9 into the range (three equal steps) every map keeps its links out of the part, each
     point's outcome switches at most once (a threshold of the model crossed, never back and
     forth: a flip is a decision taken by round-off), and where it does not switch the energy
-    moves continuously. "1e-12" is radians at the finger's scale: the length tests of MODEL 3
+    moves continuously (both with root_tol <= 1e-10; contacts within a hair of B excepted,
+    near_b). "1e-12" is radians at the finger's scale: the length tests of MODEL 3
     are inclusive by an absolute 1e-12, which an angle's move of 1e-12 shifts by 1e-12 times
     the lengths, so the move is 1e-12 / max(1, l1 + l2 + r)."""
     d = case["design"]
     cmd = case["command"]
+    if case["effects"].finger_collision and d.w == 0.0:
+        # fingers sharing a base touch there, and lie along each other on the palm line, in
+        # configurations whose touch test (D5, D14) a limit's move decides: left open
+        # (docs/stability.md), no link through the part at stake
+        return
     tension = max(cmd.f_left, cmd.f_right)
     inside = 1e-12 / max(1.0, d.l1 + d.l2 + case["part"].r)
     for name, sign in LIMIT_MOVES:
@@ -478,9 +500,14 @@ def check_limit_moves(case, m):
             assert not (relabelled & moved).any(), _where(
                 f"{name} moved 1e-12 inside changes the outcome", m, relabelled & moved, 0,
                 None)
-            jump = np.abs(m.fields["energy"] - mn.fields["energy"]) > tol
+            jump = ((np.abs(m.fields["energy"] - mn.fields["energy"]) > tol)
+                    & ~near_b(case, m, mn))
             assert not jump.any(), _where(f"{name} moved 1e-12 inside moves the energy", m,
                                           jump, 0, None)
+        if case["accuracy"].root_tol > 1e-10:
+            # a coarse root_tol locates events only to itself: which of two events within it
+            # comes first is an accuracy setting's answer (D19), not round-off
+            continue
         maps = [m]
         for k in (1, 2, 3):
             c = moved_limit(case, name, sign * k * 1e-9 / 3.0)
@@ -502,7 +529,8 @@ def check_limit_moves(case, m):
         same = (keys[0] == keys[-1]).all(axis=0)
         tol = tension * ((d.r1 + d.r2) * 1e-6 + 2.0 * energy_resolution(case, maps[0],
                                                                            maps[-1]))
-        jump = same & (np.abs(maps[0].fields["energy"] - maps[-1].fields["energy"]) > tol)
+        jump = (same & ~near_b(case, maps[0], maps[-1])
+                & (np.abs(maps[0].fields["energy"] - maps[-1].fields["energy"]) > tol))
         assert not jump.any(), _where(f"the energy jumps along a 1e-9 move of {name}", m, jump,
                                       0, None)
 
