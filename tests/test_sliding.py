@@ -2,7 +2,8 @@
 slow reference (tests/naive.py, written from the D16 text), the D16 invariants, and the stall
 that motivates the rule, pinned on the energies.
 
-Only end states and end points are compared here (tests/test_reference.py compares every field);
+End states and end points are compared here (tests/test_reference.py compares every field), and
+where each slide stops, off the grid (a stop can move while every end point stays the same);
 every map below has grid stalls that slide, and each comparison asserts that sliding and grid8
 really differ on it, so a kernel that silently fell back to grid8 fails; together the maps have
 moves given by each of the three searches of D16's cascade. On the whole crease map, every place
