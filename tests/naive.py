@@ -105,13 +105,37 @@ def lower_stop_admissible(t2, k2, l1, r1, r2, mu_s):
     return lo < hi or (lo == hi and not lo_open and not hi_open)
 
 
+# D30: a closed form's validity test accepts its value within RANGE_TOL plus the value's own
+# round-off. A tangent length k = sqrt(D - r^2) whose D carries an absolute error delta carries
+# delta / (2 k), or sqrt(delta) once k^2 is below delta; the tangent's angle atan2(r, k) then
+# carries that times r / (r^2 + k^2).
+EPS = 2.0 ** -52
+
+
+def tangent_roundoff(k, delta, r):
+    """D30: (error of the tangent length k, error of its angle) for D known to delta."""
+    dk = delta / (2.0 * k) if k * k > delta else math.sqrt(delta)
+    return dk, dk * r / (r * r + k * k)
+
+
+def within(v, lo, hi, slack):
+    """D30: lo <= v <= hi, inclusive by RANGE_TOL plus the value's round-off."""
+    return lo - RANGE_TOL - slack <= v <= hi + RANGE_TOL + slack
+
+
 def proximal_tangency(dx, dy, l1, r):
-    """M3.1 with its validity checks. Returns (t1, k1) clamped into range, or None."""
-    k1 = tangent_length(dx * dx + dy * dy, r)
+    """M3.1 with its validity checks (D30). Returns (t1, k1) clamped into range, or None.
+
+    |d|^2 carries 4 eps |d|^2. A part dipping below the palm line within the feasibility test's
+    slack (dy < r) touches the link at rest: any angle below 0 is that contact (D30)."""
+    dist2 = dx * dx + dy * dy
+    k1 = tangent_length(dist2, r)
     if k1 is None:
         return None
     t1 = math.atan2(dy, dx) - math.atan2(r, k1)
-    if in_range(k1, 0.0, l1) and in_range(t1, 0.0, PI):
+    dk, dt = tangent_roundoff(k1, 4.0 * EPS * dist2, r)
+    low = 0.0 if dy >= r else -PI / 2.0
+    if within(k1, 0.0, l1, dk) and within(t1, low, PI, dt):
         return clamp(t1, 0.0, PI), clamp(k1, 0.0, l1)
     return None
 
@@ -128,20 +152,33 @@ def distal_tangent_state(dx, dy, t1, l1, r):
 
 
 def distal_tangency(dx, dy, t1, l1, l2, r, th2_min, th2_max):
-    """M3.2 with its validity checks. Returns (t2, k2) clamped into range, or None."""
+    """M3.2 with its validity checks (D30). Returns (t2, k2) clamped into range, or None.
+
+    e = d - B cancels: its components carry 2 eps (|d| + l1), so |e|^2 carries 2 |e| that plus
+    4 eps |e|^2, and the direction of e that over |e|."""
     ex = dx - l1 * math.cos(t1)
     ey = dy - l1 * math.sin(t1)
-    k2 = tangent_length(ex * ex + ey * ey, r)
+    e2 = ex * ex + ey * ey
+    k2 = tangent_length(e2, r)
     if k2 is None:
         return None
     t2 = wrap(math.atan2(ey, ex) - math.atan2(r, k2) - t1)
-    if in_range(k2, 0.0, l2) and in_range(t2, th2_min, th2_max):
+    e = math.sqrt(e2)
+    err_e = 2.0 * EPS * (math.hypot(dx, dy) + l1)
+    dk, dt = tangent_roundoff(k2, 2.0 * e * err_e + 4.0 * EPS * e2, r)
+    dt += err_e / max(e, r) + 8.0 * EPS * PI
+    if within(k2, 0.0, l2, dk) and within(t2, th2_min, th2_max, dt):
         return clamp(t2, th2_min, th2_max), clamp(k2, 0.0, l2)
     return None
 
 
-def rigid_distal_tangency(dx, dy, l1, l2, r, th2_min):
-    """M3.3: distal tangency during the rigid sweep (t2 = theta2_min). Returns (t1, k2) or None."""
+def rigid_distal_tangency(dx, dy, l1, l2, r, th2_min, rest=0.0):
+    """M3.3: distal tangency during the rigid sweep (t2 = theta2_min). Returns (t1, k2, t1 before
+    clamping, its slack) or None. Validity within the round-off of D30: K = k2 +
+    l1 cos(theta2_min) = sqrt(|d|^2 - r'^2) through asin(r'/|d|) carries what a tangent
+    length with delta = 8 eps max(|d|^2, r'^2) does, plus 4 eps (|d| + l1); the angle K's
+    error over r'. `rest`: the lowest angle that is still a contact (below 0 for a part
+    dipping below the palm line)."""
     r_prime = r + l1 * math.sin(-th2_min)
     dist2 = dx * dx + dy * dy
     if dist2 < r_prime * r_prime * (1.0 - TOUCH_REL):
@@ -151,9 +188,34 @@ def rigid_distal_tangency(dx, dy, l1, l2, r, th2_min):
     phi = alpha - math.asin(min(r_prime / dist, 1.0))
     t1 = phi - th2_min
     k2 = dist * math.cos(alpha - phi) - l1 * math.cos(th2_min)
-    if in_range(k2, 0.0, l2) and in_range(t1, 0.0, PI):
-        return clamp(t1, 0.0, PI), clamp(k2, 0.0, l2)
+    big = max(dist2, r_prime * r_prime)
+    dk, _ = tangent_roundoff(max(k2 + l1 * math.cos(th2_min), 0.0), 8.0 * EPS * big, r)
+    dk += 4.0 * EPS * (dist + l1)
+    dt = dk / r_prime + 8.0 * EPS
+    if within(k2, 0.0, l2, dk) and within(t1, rest, PI, dt):
+        # within its round-off of B the contact is at B (k2 = 0), where it cannot stick (D30)
+        k2 = clamp(k2, 0.0, l2) if k2 > RANGE_TOL + dk else 0.0
+        return clamp(t1, 0.0, PI), k2, t1, RANGE_TOL + dt
     return None
+
+
+def b_graze_strike(dx, dy, l1, r, th2_min):
+    """D30 (MODEL 4 revised): the angle at which B, only grazing the disc in the rigid sweep
+    (acos argument within RANGE_TOL below 1, or within its round-off above), strikes it because
+    a link attached to B points into the disc there; None otherwise. At the graze B lies on the
+    line from J to the centre; the distal link leaves B at theta2_min from the proximal one."""
+    dist = math.hypot(dx, dy)
+    c = (l1 * l1 + dist * dist - r * r) / (2.0 * l1 * dist)
+    err_c = 4.0 * EPS * (l1 * l1 + dist * dist + r * r) / (2.0 * l1 * dist)
+    if not (1.0 - RANGE_TOL <= c <= 1.0 + err_c):
+        return None
+    t = math.atan2(dy, dx) - math.acos(min(c, 1.0))
+    bx, by = l1 * math.cos(t), l1 * math.sin(t)
+    to_centre = (dx - bx, dy - by)
+    distal = (math.cos(t + th2_min), math.sin(t + th2_min))
+    proximal_back = (-math.cos(t), -math.sin(t))
+    enters = any(to_centre[0] * u[0] + to_centre[1] * u[1] > 0.0 for u in (distal, proximal_back))
+    return t if enters else None
 
 
 def vertex_entry(ex, ey, rho, r, delta):
@@ -181,20 +243,26 @@ def rigid_sweep(dx, dy, l1, l2, r, th2_min):
         return EV_PROXIMAL, t1, k1
 
     # Vertex strikes, turning about J: B at (rho=l1, delta=0), T at the rigid tip position.
+    # A part dipping below the palm line (dy < r, D30) touches the finger at rest: an event's
+    # angle below 0 is that contact.
+    rest = 0.0 if dy >= r else -PI / 2.0
     strikes = []
     tb = vertex_entry(dx, dy, l1, r, 0.0)
-    if tb is not None and in_range(tb, 0.0, PI):
-        strikes.append((clamp(tb, 0.0, PI), 0, EV_VERTEX_B))
+    if tb is None:
+        tb = b_graze_strike(dx, dy, l1, r, th2_min)    # D30: a graze of B strikes
+    if tb is not None and in_range(tb, rest, PI):
+        strikes.append((clamp(tb, 0.0, PI), 0, EV_VERTEX_B, tb))
     tip_x = l1 + l2 * math.cos(th2_min)
     tip_y = l2 * math.sin(th2_min)
     tt = vertex_entry(dx, dy, math.hypot(tip_x, tip_y), r, math.atan2(tip_y, tip_x))
-    if tt is not None and in_range(tt, 0.0, PI):
-        strikes.append((clamp(tt, 0.0, PI), 1, EV_VERTEX_T))
+    if tt is not None and in_range(tt, rest, PI):
+        strikes.append((clamp(tt, 0.0, PI), 1, EV_VERTEX_T, tt))
     first_strike = min(strikes) if strikes else None   # B before T on an exact tie (D3)
 
-    tan = rigid_distal_tangency(dx, dy, l1, l2, r, th2_min)
-    if tan is not None and (first_strike is None or tan[0] <= first_strike[0] + RANGE_TOL):
-        return EV_DISTAL, tan[0], tan[1]               # tangency wins ties (D3)
+    tan = rigid_distal_tangency(dx, dy, l1, l2, r, th2_min, rest)
+    # tangency wins ties within its angle's slack (D3, D30); the unclamped angles are compared
+    if tan is not None and (first_strike is None or tan[2] <= first_strike[3] + tan[3]):
+        return EV_DISTAL, tan[0], tan[1]
     if first_strike is not None:
         return first_strike[2], first_strike[0], None
     return EV_NONE, PI, None
@@ -305,6 +373,8 @@ def naive_finger(dx, dy, l1, l2, r1, r2, r, mu, theta2_min, theta2_max,
     def reconfigured(t1_0):
         mode, t1, t2, k2 = reconfigure(dx, dy, t1_0, l1, l2, r1, r2, r, mu, theta2_max,
                                        reconfig_step, root_tol)
+        if mode == DISTAL_ONLY:   # 3.2 near B carries round-off: within the lower stop (D30)
+            t2 = max(t2, theta2_min)
         return _result(mode, t1, t2, 0.0, k2)
 
     kind, t1, k = rigid_sweep(dx, dy, l1, l2, r, theta2_min)

@@ -17,11 +17,20 @@ D13 allows) and forces. At every feasible grid point of every map:
   the energy at a point (to the resolution of docs/stability.md's `mu = 1e6` row); contacts on
   the disc and `k2 = l1 - k1` in two-phalanx contact.
 
-Examples: ACCEPTED_EXAMPLES (default 25, about 20 s with compiled kernels);
-SWEEP_LONG_PROPERTIES=1 runs the long profile (1,000 random examples).
+The edges (model-notes D30): the same draws moved to the edges of the accepted space
+(edge_case): joint limits at the extremes the validation accepts, and a grid point put exactly
+(or within a few ulps) on a graze of B, a tangency at k = 0 or k = l, the reach's boundary or the
+finger's joint; the invariants above hold there too, a limit and the same limit 1e-12 inside it
+give the same map, and along a move of a limit by 1e-9 no outcome flips back and forth and the
+energy moves continuously where the outcome does not switch (check_limit_moves).
+
+Examples: ACCEPTED_EXAMPLES (default 25, about 20 s with compiled kernels), EDGE_EXAMPLES
+(default 8, a few seconds); SWEEP_LONG_PROPERTIES=1 runs the long profile (1,000 random
+examples each).
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 
@@ -30,6 +39,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
+from sweep.compute.layout import finger_offsets, map_grid
 from sweep.compute.maps import compute_map
 from sweep.model import (
     INFEASIBLE,
@@ -46,6 +56,7 @@ from sweep.model import (
     Effects,
     Grid,
     Limits,
+    ModelInputError,
     Outputs,
     Part,
     validate_inputs,
@@ -58,6 +69,8 @@ EXAMPLES = 1000 if LONG else int(os.environ.get("ACCEPTED_EXAMPLES", "25"))
 #: seconds, which the long profile pays; the bounded one (make test, CI's 10 minutes) stops at
 #: 1e-3, still ten times finer than any config of the project.
 STEP_FLOOR = 1e-4 if LONG else 1e-3
+#: Examples of the edge draws (edge_case): each runs about ten maps (the limit moves)
+EDGE_EXAMPLES = 1000 if LONG else int(os.environ.get("EDGE_EXAMPLES", "8"))
 # The long profile does not shrink a failure (an example costs up to seconds; the failing case
 # is printed as drawn, with its note).
 PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not LONG, database=None,
@@ -243,7 +256,7 @@ def _where(what, m, bad, side, dist):
 def check_model_11(case, m):
     f = m.fields
     cmd = case["command"]
-    if cmd.f_left == cmd.f_right:
+    if cmd.f_left == cmd.f_right and case["grid"].xlim is None:   # a window may be lopsided
         assert np.array_equal(f["point_class"], f["point_class"][:, ::-1])
         assert np.array_equal(f["finger_mode"][0], f["finger_mode"][1][:, ::-1])
         assert np.allclose(f["energy"], f["energy"][:, ::-1], rtol=1e-12, atol=0,
@@ -278,6 +291,248 @@ def check_friction_monotone(case, m):
     tol = tension * (1e-12 * 4.0 * (design.r1 + design.r2) + 2.0 * resolution)
     lower = both & (more.fields["energy"] < f["energy"] - tol)
     assert not lower.any(), _where("more friction lowers the energy", m, lower, 0, None)
+
+
+# ---------------------------------------------------------------------------------------------
+# The edges of the accepted space (model-notes D30)
+# ---------------------------------------------------------------------------------------------
+#: theta2_min just above -90 deg (the validation refuses -90), at 0, a hair below 0, anywhere
+EDGE_THETA2_MIN = st.sampled_from([-90.0 + 10.0 ** -k for k in (1, 3, 5, 7, 9, 11, 13)]
+                                  + [0.0, -1e-12, -5.0]) | st.floats(-89.9999, 0.0)
+#: what the edge draws put at a grid point of the right finger (EDGE_SNAPS's docstrings)
+EDGE_SNAPS = ("b-graze", "tangent-at-b", "tangent-at-tip", "proximal-at-b",
+              "two-phalanx-at-tip", "reach", "joint", "distal-at-max", "distal-at-min", "none")
+#: how many grid points an edge map may have before it is windowed around the snapped point
+EDGE_MAX_POINTS = 1500
+
+
+def snap(kind, design, part, limits, dx, dy):
+    """The design or limits that put the point d = (dx, dy) of the right finger's frame at an
+    edge of MODEL 3-4, in closed forms of this test's own (None where the kind does not apply):
+    b-graze: B's circle about J touches the disc from outside (|d| = l1 + r); tangent-at-b: the
+    rigid sweep's distal tangency (3.3) exactly at B (k2 = 0: |d|^2 = l1^2 + r^2 + 2 r l1 s,
+    s = sin(-theta2_min)); tangent-at-tip: the same at the tip (k2 = l2); proximal-at-b: the
+    proximal tangency at B (k1 = l1); two-phalanx-at-tip: two-phalanx contact at the tip
+    (k2 = l1 - k1 = l2, MODEL 3.4); reach: the tip's circle in the rigid sweep touches the disc
+    from outside (the reach's boundary); distal-at-max / -min: the two-phalanx contact's t2
+    (pi - 2 atan2(r, l1 - k1)) is the joint limit."""
+    l1, r = design.l1, part.r
+    dist = math.hypot(dx, dy)
+    if dist <= r * (1.0 + 1e-9):
+        return None
+    s, c = math.sin(-limits.theta2_min), math.cos(limits.theta2_min)
+    k1 = math.sqrt(dist * dist - r * r)
+    if kind == "b-graze":
+        return {"l1": dist - r}
+    if kind == "tangent-at-b":
+        return {"l1": -r * s + math.sqrt(r * r * s * s + dist * dist - r * r)}
+    if kind == "tangent-at-tip":
+        r_eff = r + l1 * s
+        if dist <= r_eff:
+            return None
+        k2 = math.sqrt(dist * dist - r_eff * r_eff) - l1 * c
+        return {"l2": k2} if k2 > 0 else None
+    if kind == "proximal-at-b":
+        return {"l1": k1}
+    if kind == "two-phalanx-at-tip":
+        return {"l2": l1 - k1} if k1 < l1 else None
+    if kind == "reach":
+        rho = dist - r   # l2^2 + 2 l1 c l2 + l1^2 - rho^2 = 0
+        disc = l1 * l1 * c * c - l1 * l1 + rho * rho
+        l2_new = -l1 * c + math.sqrt(disc) if disc >= 0 else -1.0
+        return {"l2": l2_new} if l2_new > 0 else None
+    if kind in ("distal-at-max", "distal-at-min"):
+        t1 = math.atan2(dy, dx) - math.atan2(r, k1)
+        if not (k1 < l1 and 0.0 <= t1 <= math.pi):
+            return None
+        t2 = math.degrees(math.pi - 2.0 * math.atan2(r, l1 - k1))
+        if kind == "distal-at-max":
+            return {"theta2_max_deg": t2} if limits.theta2_min_deg < t2 <= 180.0 else None
+        return {"theta2_min_deg": t2} if -90.0 < t2 <= 0.0 and t2 < limits.theta2_max_deg else None
+    return None
+
+
+@st.composite
+def edge_case(draw):
+    """A map of accepted_case moved to the edges of the accepted space: joint limits at the
+    extremes the validation accepts, and one grid point of the right finger put exactly (or
+    within a few ulps) at an edge of the closing sequence (snap), or the part touching the
+    finger's joint (joint). Falls back to the limits alone where a snap does not apply."""
+    case = draw(accepted_case())
+    th2min = draw(EDGE_THETA2_MIN)
+    th2max = draw(st.sampled_from([180.0, 90.0, 180.0 - 1e-12, "span"])
+                  | st.floats(th2min + 1e-9, 180.0))
+    if th2max == "span":
+        th2max = th2min + draw(st.sampled_from([1e-12, 1e-9, 1e-6, 1e-3]))
+    th2max = min(max(th2max, math.nextafter(th2min, math.inf)), 180.0)
+    limits = Limits(theta2_min_deg=th2min, theta2_max_deg=th2max)
+    design, part, grid = case["design"], case["part"], case["grid"]
+    kind = draw(st.sampled_from(EDGE_SNAPS))
+    ulps = draw(st.sampled_from([0, 0, 0, 1, -1, 3, -3]))
+    what = "limits"
+    if kind == "joint":
+        g = map_grid(design, part, grid)
+        i = draw(st.integers(0, max(0, int(g.i.max()))))
+        w = 2.0 * i * grid.h * (1.0 + ulps * 2.0 ** -52)
+        if w > 0:
+            design = dataclasses.replace(design, w=w)
+            what = f"joint: part touching the right finger's joint under column {i}"
+    elif kind != "none":
+        g = map_grid(design, part, grid)
+        ii = draw(st.integers(0, len(g.i) - 1))
+        jj = draw(st.integers(0, len(g.y) - 1))
+        dx = float(finger_offsets(g.i, design.w, g.h)[1][ii])
+        dy = float(g.y[jj])
+        change = snap(kind, design, part, limits, dx, dy)
+        if change:
+            key, value = next(iter(change.items()))
+            value *= 1.0 + ulps * 2.0 ** -52
+            if key in ("l1", "l2"):
+                design = dataclasses.replace(design, **{key: value})
+            else:
+                limits = dataclasses.replace(limits, **{key: value})
+            what = f"{kind} at (x, y) = ({g.x[ii]!r}, {dy!r}): {key} = {value!r}"
+            # keep the point on the grid and the map small: a window about it if needed
+            x0, y0 = float(g.x[ii]), dy
+            full = map_grid(design, part, Grid(h=grid.h))
+            inside = full.x[0] <= x0 <= full.x[-1] and y0 <= full.y[-1]
+            if not inside or full.x.size * full.y.size > EDGE_MAX_POINTS:
+                grid = Grid(h=grid.h, xlim=(x0 - 4 * grid.h, x0 + 4 * grid.h),
+                            ylim=(max(part.r, y0 - 4 * grid.h), y0 + 4 * grid.h))
+    effects = case["effects"]
+    if effects.joint_springs:
+        tension = min(case["command"].f_left, case["command"].f_right)
+        span2 = limits.theta2_max - limits.theta2_min
+        effects = dataclasses.replace(effects, spring_k2=min(
+            effects.spring_k2, 0.999 * tension * design.r2 / span2))
+    try:
+        validate_inputs(design, part, case["command"], limits, case["accuracy"], effects)
+    except ModelInputError:
+        return case   # a snap the validation refuses (lengths of too many scales): as drawn
+    return {**case, "design": design, "limits": limits, "effects": effects, "grid": grid,
+            "edge": what}
+
+
+def moved_limit(case, name, delta):
+    """`case` with the joint limit `name` (a Limits field in degrees) moved by `delta` radians,
+    or None where the validation refuses it or the move vanishes in round-off."""
+    limits = case["limits"]
+    new = dataclasses.replace(limits, **{name: getattr(limits, name) + math.degrees(delta)})
+    if new == limits:
+        return None
+    try:
+        validate_inputs(case["design"], case["part"], case["command"], new, case["accuracy"],
+                        case["effects"])
+    except ModelInputError:
+        return None
+    return {**case, "limits": new}
+
+
+def outcome_key(m):
+    """(class, left mode, right mode) per point: what a move of a limit may switch."""
+    f = m.fields
+    return np.stack([f["point_class"], f["finger_mode"][0], f["finger_mode"][1]])
+
+
+def near_b(case, *maps):
+    """Points where a finger of any of the maps has a distal contact within 1e-6 of the finger's
+    size from B. There the edge path's stick test (MODEL 5.3) reads 3.2 at a tangent length of
+    round-off size, whose angle carries up to 1e-8 (D30): whether the contact sticks right at B
+    or slides on is decided by that round-off (left as it is, docs/stability.md), and a contact
+    a hair from B that sticks on the lower stop against one at B that cannot (D10, D30) is a
+    threshold the outcome codes do not show. Their energies are not compared."""
+    d = case["design"]
+    size = 1e-6 * (d.l1 + d.l2 + case["part"].r)
+    out = np.zeros(maps[0].fields["energy"].shape, dtype=bool)
+    for m in maps:
+        k2 = m.fields["k2"]
+        out |= ((k2 > 0) & (k2 < size)).any(axis=0)
+    return out
+
+
+def energy_resolution(case, *maps):
+    """How far two maps' energies may differ where their outcomes agree (per unit tension): a
+    stuck contact is located to root_tol in t1 (D4), so its energy to root_tol (r1 + r2 (1 +
+    10 l1 / k2)), k2 the least contact length of either map (check_friction_monotone)."""
+    d = case["design"]
+    k2 = np.minimum.reduce([np.where(m.fields["k2"] > 0, m.fields["k2"], np.inf).min(axis=0)
+                            for m in maps])
+    root_tol = max(case["accuracy"].root_tol, 1e-12)
+    return root_tol * (d.r1 + d.r2 * (1.0 + 10.0 * d.l1 / k2))
+
+
+#: the limit moves: (Limits field, the direction into the accepted range)
+LIMIT_MOVES = (("theta2_min_deg", 1.0), ("theta2_max_deg", -1.0))
+
+
+def check_limit_moves(case, m):
+    """A limit and the same limit 1e-12 inside it give the same map (MODEL 5.5's slack: the
+    same finger configurations and energies, to the limit's move and the energy's resolution,
+    and the same classes and modes except where two of the model's events tie exactly and
+    leave the fingers in the same place, e.g. g = 0 exactly at theta2_max = 90 deg with r1 = r2
+    and a proximal contact at the joint: two-phalanx, sticking, or distal-only on the proximal
+    stop, the same angles); along a move of
+    1e-9 into the range (three equal steps) every map keeps its links out of the part, each
+    point's outcome switches at most once (a threshold of the model crossed, never back and
+    forth: a flip is a decision taken by round-off), and where it does not switch the energy
+    moves continuously (both with root_tol <= 1e-10; contacts within a hair of B excepted,
+    near_b). "1e-12" is radians at the finger's scale: the length tests of MODEL 3
+    are inclusive by an absolute 1e-12, which an angle's move of 1e-12 shifts by 1e-12 times
+    the lengths, so the move is 1e-12 / max(1, l1 + l2 + r)."""
+    d = case["design"]
+    cmd = case["command"]
+    if case["effects"].finger_collision and d.w == 0.0:
+        # fingers sharing a base touch there, and lie along each other on the palm line, in
+        # configurations whose touch test (D5, D14) a limit's move decides: left open
+        # (docs/stability.md), no link through the part at stake
+        return
+    tension = max(cmd.f_left, cmd.f_right)
+    inside = 1e-12 / max(1.0, d.l1 + d.l2 + case["part"].r)
+    for name, sign in LIMIT_MOVES:
+        near = moved_limit(case, name, sign * inside)
+        if near is not None:
+            mn = run(near)
+            tol = tension * ((d.r1 + d.r2) * 1e-9 + 2.0 * energy_resolution(case, m, mn))
+            moved = np.zeros(m.fields["energy"].shape, dtype=bool)
+            for key in ("theta1", "theta2"):
+                moved |= (np.abs(m.fields[key] - mn.fields[key]) > 1e-9).any(axis=0)
+            relabelled = (outcome_key(m) != outcome_key(mn)).any(axis=0)
+            assert not (relabelled & moved).any(), _where(
+                f"{name} moved 1e-12 inside changes the outcome", m, relabelled & moved, 0,
+                None)
+            jump = ((np.abs(m.fields["energy"] - mn.fields["energy"]) > tol)
+                    & ~near_b(case, m, mn))
+            assert not jump.any(), _where(f"{name} moved 1e-12 inside moves the energy", m,
+                                          jump, 0, None)
+        if case["accuracy"].root_tol > 1e-10:
+            # a coarse root_tol locates events only to itself: which of two events within it
+            # comes first is an accuracy setting's answer (D19), not round-off
+            continue
+        maps = [m]
+        for k in (1, 2, 3):
+            c = moved_limit(case, name, sign * k * 1e-9 / 3.0)
+            if c is None:
+                break
+            maps.append(run(c))
+            check_map(c, maps[-1])
+        if len(maps) < 2:
+            continue
+        keys = [outcome_key(x) for x in maps]
+        switches = sum((a != b).any(axis=0).astype(int) for a, b in zip(keys, keys[1:]))
+        assert not (switches > 1).any(), _where(
+            f"the outcome flips back and forth along a 1e-9 move of {name}", m, switches > 1,
+            0, None)
+        if case["effects"].finger_collision:
+            # where the fingers meet is a threshold the outcome codes do not show (a finger
+            # stopped by the other keeps its mode), so its jumps are not told from continuity
+            continue
+        same = (keys[0] == keys[-1]).all(axis=0)
+        tol = tension * ((d.r1 + d.r2) * 1e-6 + 2.0 * energy_resolution(case, maps[0],
+                                                                           maps[-1]))
+        jump = (same & ~near_b(case, maps[0], maps[-1])
+                & (np.abs(maps[0].fields["energy"] - maps[-1].fields["energy"]) > tol))
+        assert not jump.any(), _where(f"the energy jumps along a 1e-9 move of {name}", m, jump,
+                                      0, None)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -399,6 +654,154 @@ def test_a_part_touching_the_joint_within_round_off_rests_on_the_open_proximal_l
     check_map(case, run(case))
 
 
+# ---------------------------------------------------------------------------------------------
+# Graze and tangency decisions at the edges (model-notes D30): each with a case of the scan
+# (scripts/edge_scan.py) or of the edge draws, against brute-force geometry, the reference or
+# the model's own invariance, never against the kernel's earlier output
+# ---------------------------------------------------------------------------------------------
+#: theta2_min = -89.9999999 deg: B's circle about J touches the disc from outside (|d| = l1 + r)
+#: while the distal link, all but perpendicular to the proximal one, comes tangent at B
+D30_GRAZE = dict(dx=0.9, dy=1.2, l1=1.0, l2=1.0, r=0.5, theta2_min=math.radians(-89.9999999),
+                 theta2_max=math.radians(90.0))
+
+
+def first_contact_by_brute_force(dx, dy, l1, l2, r, theta2_min):
+    """(t1, arc length along J-B-T) of the rigid sweep's first contact, by dense sampling of
+    the link-disc distance (tests/test_closing_bruteforce.py; no closed forms)."""
+    from test_closing_bruteforce import brute_rigid
+    return brute_rigid(dx, dy, l1, l2, r, theta2_min)
+
+
+def links_clear_of_the_part(dx, dy, l1, l2, r, state):
+    j, b, t = finger_points(Design(l1, l2, 1.0, 1.0, 0.0), np.array(state.t1),
+                            np.array(state.t2), 1)
+    return min(segment_distance(dx, dy, j, b), segment_distance(dx, dy, b, t)) / r - 1.0
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1.0, 1e3, 1e9])
+def test_a_graze_of_b_with_the_distal_link_cutting_in_is_the_first_contact(scale):
+    """MODEL 4 (revised 2026-11-27), D30: at D30_GRAZE the rigid sweep's distal tangency (3.3)
+    lies at k2 = 0 as B grazes the disc; through asin(r'/|d|) near 1 it came out k2 = -1e-8
+    and was rejected, the graze of B was ignored (D3), and the finger swept on until its tip
+    struck at t1 = 1.3729 with its distal link 0.29 r inside the part (every scale from 1e-3
+    up). Brute force: the first contact is at t1 = atan2(dy, dx), at B. The tangency wins the
+    tie (D3) as a contact at B (k2 = 0), which cannot stick and slides (D10, D15); the settled
+    finger keeps its links out of the part, as the reference says, at every scale."""
+    from kernel_calls import closing, solve
+    from naive import naive_finger
+    from sweep.kernels.finger import DISTAL_ON_LOWER_STOP
+
+    c = D30_GRAZE
+    tb, ub = first_contact_by_brute_force(c["dx"], c["dy"], c["l1"], c["l2"], c["r"],
+                                          c["theta2_min"])
+    assert tb == pytest.approx(math.atan2(c["dy"], c["dx"]), abs=1e-6) and ub == pytest.approx(
+        c["l1"], abs=1e-6)
+    dx, dy, l1, l2, r = (scale * c[k] for k in ("dx", "dy", "l1", "l2", "r"))
+    first = closing(dx, dy, l1, l2, r, c["theta2_min"], c["theta2_max"])
+    assert first.mode == DISTAL_ON_LOWER_STOP and first.k2 == 0.0
+    assert first.t1 == pytest.approx(tb, abs=1e-6)
+    args = (dx, dy, l1, l2, 0.2, 0.1, r, 0.4, c["theta2_min"], c["theta2_max"])
+    final = solve(*args, 0.01, 1e-12)
+    assert links_clear_of_the_part(dx, dy, l1, l2, r, final) >= -LINK_TOL
+    ref = naive_finger(*args)
+    assert final.mode == ref["mode"] and final.t1 == pytest.approx(ref["t1"], abs=1e-9)
+
+
+def test_a_map_at_the_graze_of_b_has_no_link_through_the_part_and_the_reference_energy():
+    """The issue's case on a map (D30): l1 = l2 = 1, r = 0.5, theta2_min = -89.9999999 deg, the
+    point (0, 1.5) on both fingers' graze circle (|d| = l1 + r). It was VERTEX with both distal
+    links 0.146 (0.29 r) inside the part and an energy 0.089 below the model's; now every
+    link is clear and the energy there is the reference's (tests/naive.py)."""
+    from naive import naive_point
+
+    case = dict(design=Design(1.0, 1.0, 0.1, 0.05, 0.0), part=Part(0.5, 0.4),
+                command=Command(1.0, 1.0),
+                limits=Limits(theta2_min_deg=-89.9999999, theta2_max_deg=90.0),
+                accuracy=Accuracy(), effects=Effects(), outputs=Outputs(), grid=Grid(h=0.1))
+    m = run(case)
+    check_map(case, m)
+    i = int(np.argmin(np.abs(m.x)))
+    j = int(np.argmin(np.abs(m.y - 1.5)))
+    assert m.x[i] == 0.0 and m.y[j] == pytest.approx(1.5, abs=1e-15)
+    ref = naive_point(0.0, m.y[j], 1.0, 1.0, 0.1, 0.05, 0.0, 0.5, 0.4,
+                      theta2_min=case["limits"].theta2_min,
+                      theta2_max=case["limits"].theta2_max)
+    assert m.fields["point_class"][j, i] == ref["point_class"] == REACHED
+    assert m.fields["energy"][j, i] == pytest.approx(ref["energy"], abs=1e-9)
+
+
+def test_a_distal_link_tangent_at_b_after_a_proximal_contact_at_b_is_a_two_phalanx_contact():
+    """D30, MODEL 3.2 within its round-off; case of the scan: theta2_min = 0 (the extreme the
+    validation accepts), the proximal link tangent at B (k1 = l1), so the distal closes from its
+    lower stop tangent at B (k2 = 0, t2 = 0 by MODEL 3.4). t2 came out below 0 by round-off,
+    3.2 was rejected and the distal link closed to theta2_max = 5.2 deg, 0.4% of r into the
+    part (PROXIMAL_ONLY, unflagged). Brute force: the distal link meets the disc at t2 = 0,
+    at B."""
+    from kernel_calls import closing
+    from test_closing_bruteforce import brute_close_distal
+
+    dx, dy, l1, l2, r = (0.8023191403825144, 0.10679381955143356, 0.8037489932390243,
+                         1.1305086829984365, 0.09543835070658839)
+    th2min, th2max = 0.0, 0.09084757333401475
+    first = closing(dx, dy, l1, l2, r, th2min, th2max)
+    t2b, sb = brute_close_distal(dx, dy, first.t1, l1, l2, r, th2min, th2max)
+    assert first.mode == TWO_PHALANX and first.k1 == l1
+    assert first.t2 == pytest.approx(t2b, abs=1e-6) and first.k2 == pytest.approx(sb, abs=1e-6)
+    assert links_clear_of_the_part(dx, dy, l1, l2, r, first) >= -LINK_TOL
+
+
+@pytest.mark.parametrize("t1", [0.1, 0.5, 0.7, 1.1])
+def test_a_proximal_tangency_at_b_is_decided_alike_at_every_scale(t1):
+    """D30, MODEL 3.1's k1 <= l1 within its round-off: the proximal link tangent at B (k1 = l1,
+    MODEL 5.5: valid, inclusive), then the distal tangent at B too (3.2: k2 = 0, t2 = 0): a
+    two-phalanx contact at every scale. With the absolute RANGE_TOL alone, round-off decided it
+    at scales 1e6 and 1e9 (k1 = l1 + 1e-10): a strike of B (VERTEX) instead."""
+    from kernel_calls import closing
+
+    for scale in (1.0, 1e6, 1e9):
+        l1, l2, r = 2.0 * scale, 1.6 * scale, 0.4 * scale
+        dx, dy = l1 * math.cos(t1) - r * math.sin(t1), l1 * math.sin(t1) + r * math.cos(t1)
+        first = closing(dx, dy, l1, l2, r, math.radians(-5.0), math.radians(90.0))
+        assert first.mode == TWO_PHALANX and first.k1 == l1, scale
+        assert first.t1 == pytest.approx(t1, abs=1e-12), scale
+
+
+@pytest.mark.parametrize("dx", [0.05, 0.2, 0.5])
+def test_a_part_dipping_below_the_palm_line_touches_the_open_finger(dx):
+    """D30: the feasibility test accepts a part up to RANGE_TOL below the palm row (off the
+    grid, where slides go); 9e-13 below, the proximal tangency's angle came out -4.5e-12 (for
+    dx = 0.2), beyond RANGE_TOL: rejected, the finger swept on through the part and B struck
+    at t1 = 0.927 (VERTEX) with the proximal link inside. Brute force: the open finger
+    (t1 = 0) already touches the part, on its proximal link at dx."""
+    from kernel_calls import closing
+
+    dy, l1, l2, r, th2min = 0.5 - 9e-13, 1.0, 1.0, 0.5, math.radians(-5.0)
+    tb, ub = first_contact_by_brute_force(dx, dy, l1, l2, r, th2min)
+    assert tb == 0.0 and ub == pytest.approx(dx, abs=1e-6)
+    first = closing(dx, dy, l1, l2, r, th2min, math.radians(90.0))
+    assert first.mode in (PROXIMAL_ONLY, TWO_PHALANX)
+    assert first.t1 == 0.0 and first.k1 == pytest.approx(dx, abs=1e-9)
+
+
+def test_a_distal_contact_within_round_off_of_b_does_not_stick_by_round_off():
+    """D30; found by the edge draws: theta2_min = -89.9 deg and the same limit 1e-12 rad inside
+    it gave the rigid sweep's distal tangency at B as k2 = 6.8e-15 and k2 = -5.5e-14 (clamped
+    to 0): the first stuck on its lower stop (D10 needs k2 > 0), the second slid to the tip
+    (SLIPPED), an energy 0.028 apart at three points of the map. Within its round-off of B
+    the contact is at B (k2 = 0) for both: the same settled finger."""
+    from kernel_calls import solve
+
+    l1, l2, r1, r, mu = (2.177854728095023, 0.11692176841063112, 0.015947959508975977,
+                         0.09703530199542944, 0.09703530199542944)
+    dx, dy = 1.55934056419791, 1.6563758661933394
+    th2min, th2max = math.radians(-89.9), math.pi
+    states = [solve(dx, dy, l1, l2, r1, r1, r, mu, th2min + move, th2max, 0.01, 1e-12)
+              for move in (0.0, 1e-12)]
+    assert states[0].mode == states[1].mode
+    assert states[0].t1 == pytest.approx(states[1].t1, abs=1e-9)
+    assert states[0].t2 == pytest.approx(states[1].t2, abs=1e-9)
+
+
 def test_physical_invariants_hold_over_the_accepted_space():
     @PROFILE
     @given(accepted_case())
@@ -407,6 +810,33 @@ def test_physical_invariants_hold_over_the_accepted_space():
         m = run(case)
         check_map(case, m)
         check_model_11(case, m)
+
+    check()
+
+
+def test_no_link_through_the_part_at_the_edges_of_the_accepted_space():
+    """The invariants of test_physical_invariants_hold_over_the_accepted_space on maps drawn at
+    the edges (edge_case): joint limits at the extremes the validation accepts, a grid point
+    put on a graze of B, a tangency at k = 0 or k = l, the reach's boundary or the finger's
+    joint (model-notes D30)."""
+    @settings(PROFILE, max_examples=EDGE_EXAMPLES)
+    @given(edge_case())
+    def check(case):
+        note(repr(case))
+        m = run(case)
+        check_map(case, m)
+        check_model_11(case, m)
+
+    check()
+
+
+def test_limits_at_the_edges_agree_with_the_limit_just_inside_and_move_continuously():
+    """check_limit_moves on maps drawn at the edges (edge_case)."""
+    @settings(PROFILE, max_examples=EDGE_EXAMPLES)
+    @given(edge_case())
+    def check(case):
+        note(repr(case))
+        check_limit_moves(case, run(case))
 
     check()
 

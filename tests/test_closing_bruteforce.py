@@ -521,3 +521,63 @@ def test_reconfiguration_stop_against_dense_path(case):
     else:
         assert (naive.g_max(t2, k2, l1, r1, r2, mu) >= 0 or t2 >= th2_max - 1e-12
                 or res["t1"] == 0.0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Where the reconfiguration path stops (MODEL 5.3, D4, D19): the kernel against the reference
+# ---------------------------------------------------------------------------------------------
+@st.composite
+def path_case(draw):
+    """A reconfiguration path (the distal contact sliding toward the tip as t1 falls): a design,
+    a part centre and the path's start, random or at the edges: R = 1, no or huge friction,
+    theta2_max at 180 deg or a hair above theta2_min, starts on the proximal upper stop, coarse
+    steps and tolerances up to what the validation accepts (0.5 rad, 0.1 rad)."""
+    dsg, th2_min, th2_max, dx, dy = draw(finger_case())
+    l1, l2, r = dsg["l1"], dsg["l2"], dsg["r"]
+    r1 = dsg["r1"]
+    r2 = draw(st.sampled_from([dsg["r2"], dsg["r2"], r1]))
+    mu = draw(st.sampled_from([dsg["mu"], dsg["mu"], 0.0, 1e6]))
+    th2_max = draw(st.sampled_from([th2_max, th2_max, math.pi, th2_min + 1e-9]))
+    step = draw(st.sampled_from([0.01, 0.5, 1e-3]) | st.floats(1e-3, 0.5))
+    root_tol = draw(st.sampled_from([1e-12, 1e-15, 1e-3, 0.1]) | st.floats(1e-15, 0.1))
+    kind, t1, _ = rigid_sweep(dx, dy, l1, l2, r, th2_min)
+    start = draw(st.sampled_from(["first contact", "pi", "anywhere"]))
+    if start == "pi":
+        t1 = math.pi
+    elif start == "anywhere" or kind == EV_NONE:
+        t1 = draw(st.floats(0.0, math.pi))
+    return dict(dx=dx, dy=dy, l1=l1, l2=l2, r1=r1, r2=r2, r=r, mu=mu, th2_min=th2_min,
+                th2_max=th2_max, t1=t1, step=step, root_tol=root_tol)
+
+
+@given(path_case())
+def test_reconfiguration_stops_where_the_reference_stops(c):
+    """The kernel's path (kernels/finger.py: reconfigure, follow_path) against the reference's
+    (naive.reconfigure, plain bisection): the same kind of stop (stuck or on a stop, or slipped
+    off the tip), at the same t1 to the bracket's width (both report the bracket end where the
+    event holds, D4), and the reported state is 3.2 at that t1 and satisfies its stop. A
+    change that moves a stop while the maps' end states (or grid values to 1e-9) still agree
+    cannot pass."""
+    from kernel_calls import reconfig
+
+    ref_mode, ref_t1, _, _ = naive.reconfigure(c["dx"], c["dy"], c["t1"], c["l1"], c["l2"],
+                                               c["r1"], c["r2"], c["r"], c["mu"], c["th2_max"],
+                                               c["step"], c["root_tol"])
+    got = reconfig(c["dx"], c["dy"], c["t1"], c["l1"], c["l2"], c["r1"], c["r2"], c["r"],
+                   c["mu"], c["th2_min"], c["th2_max"], c["step"], c["root_tol"])
+    assert got.mode == ref_mode, (got, ref_mode, ref_t1)
+    # both brackets end where the event holds and are at most root_tol wide (D4, D19)
+    assert abs(got.t1 - ref_t1) <= c["root_tol"] + 4e-16, (got, ref_t1)
+    t2, k2 = distal_tangent_state(c["dx"], c["dy"], got.t1, c["l1"], c["r"])
+    expected_t2 = min(t2, c["th2_max"])
+    if got.mode == DISTAL_ONLY:   # 3.2 near B carries round-off: within the lower stop (D30)
+        expected_t2 = max(expected_t2, c["th2_min"])
+    assert got.t2 == pytest.approx(expected_t2, abs=1e-12)
+    assert got.k2 == pytest.approx(k2, abs=1e-12 * (c["l1"] + c["r"]))
+    assert got.k1 == 0.0
+    # the reported state satisfies its stop (D4: the bracket end where the event holds)
+    if got.mode == SLIPPED:
+        assert k2 > c["l2"] + naive.RANGE_TOL
+    else:
+        assert (naive.g_max(t2, k2, c["l1"], c["r1"], c["r2"], c["mu"]) >= 0.0
+                or t2 >= c["th2_max"] - naive.RANGE_TOL or got.t1 == 0.0), got

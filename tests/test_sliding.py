@@ -2,7 +2,8 @@
 slow reference (tests/naive.py, written from the D16 text), the D16 invariants, and the stall
 that motivates the rule, pinned on the energies.
 
-Only end states and end points are compared here (tests/test_reference.py compares every field);
+End states and end points are compared here (tests/test_reference.py compares every field), and
+where each slide stops, off the grid (a stop can move while every end point stays the same);
 every map below has grid stalls that slide, and each comparison asserts that sliding and grid8
 really differ on it, so a kernel that silently fell back to grid8 fails; together the maps have
 moves given by each of the three searches of D16's cascade. On the whole crease map, every place
@@ -425,3 +426,79 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     west = point_outcome(-h, 2.0, finger, solver, blocks, hand)[1]
     assert east == west  # an exact tie
     assert (ux, uy) == (1.0, 0.0) and e == east
+
+
+# ---------------------------------------------------------------------------------------------
+# Where each slide stops, not only where its trajectory ends
+# ---------------------------------------------------------------------------------------------
+SLIDE_KINDS = {0: "rejoined", 1: "ejection", 2: "stalled"}   # kernels/field.py SLIDE_*
+
+
+def kernel_slide_stops(m):
+    """{(j, i): (outcome, x, y)} of every grid stall of a kernel map that slides: the kernel's
+    own slide (kernels/field.py: slide_successor, called as trajectory_ends calls it, with the
+    map's memo and collision context) from that grid point, and the last position it records:
+    where the part rejoined the grid, left P_j or the window, or stopped."""
+    from sweep.compute.layout import kernel_records
+    from sweep.kernels.field import (downhill_neighbour, max_slide_points, memo_for_slide,
+                                     new_memo, slide_successor)
+    from sweep.kernels.hand import slide_context
+    from sweep.kernels.records import Hand
+
+    f = m.fields
+    energy = np.asarray(f["energy"], dtype=np.float64)
+    point_class = np.asarray(f["point_class"])
+    equilibrium = np.asarray(f["equilibrium"], dtype=bool)
+    x, y = np.asarray(m.x, float), np.asarray(m.y, float)
+    ny, nx = energy.shape
+    h = m.grid.h
+    finger, solver, blocks = kernel_records(m.design, m.part, m.limits, m.accuracy, m.effects)
+    hand = Hand(float(m.design.w), float(m.command.f_left), float(m.command.f_right), float(h))
+    memo = new_memo(1, hand.f_left == hand.f_right)
+    context = slide_context(finger, hand.w, blocks.finger_collision)
+    path = np.empty((max_slide_points(ny, nx), 2))
+    stops = {}
+    for j in range(ny):
+        for i in range(nx):
+            if (point_class[j, i] != naive.REACHED or equilibrium[j, i]
+                    or downhill_neighbour(energy, point_class, i, j, h) >= 0):
+                continue
+            memo = memo_for_slide(memo)
+            _, kind, n = slide_successor(energy, point_class, equilibrium, x, y, i, j, finger,
+                                         solver, blocks, hand, path, memo, context)
+            stops[(j, i)] = (SLIDE_KINDS[int(kind)], path[n - 1, 0], path[n - 1, 1])
+    return stops
+
+
+def assert_same_slide_stops(kernel, ref):
+    """Every slide of the reference (naive.py, D16) has the kernel's outcome and stops where the
+    reference's does (to 1e-9 h: the two build their rotated directions in different orders),
+    and the kernel slides from no other grid point."""
+    got = kernel_slide_stops(kernel)
+    assert set(got) == set(ref["slides"]), (sorted(got), sorted(ref["slides"]))
+    h = kernel.grid.h
+    problems = []
+    for key, outcome in ref["slides"].items():
+        px, py, _ = ref["slide_ends"][key]
+        k_outcome, kx, ky = got[key]
+        if k_outcome != outcome or math.hypot(kx - px, ky - py) > 1e-9 * h:
+            problems.append(f"slide from (j, i) = {key}: kernel {k_outcome} at ({kx!r}, {ky!r}), "
+                            f"reference {outcome} at ({px!r}, {py!r})")
+    assert not problems, f"{len(problems)} slides stop elsewhere:\n" + "\n".join(problems[:10])
+
+
+@pytest.mark.parametrize("name", list(SLIDE_CASES))
+def test_slide_stop_positions_match_reference(maps, name):
+    """Where each slide stops (rejoins, leaves P_j, stalls), against the reference: a slide's
+    stop can move while every trajectory's end point (the nearest grid point) stays the same,
+    which the end-state comparison above cannot see."""
+    ref = maps(name, "reference")
+    assert ref["slides"]
+    assert_same_slide_stops(maps(name, "kernel"), ref)
+
+
+@settings(max_examples=12)
+@given(table_designs, st.sampled_from([(1.0, 1.0), (0.6, 1.4)]))
+def test_slide_stop_positions_match_reference_random_designs(design, commands):
+    ref = reference_map(design, commands, h=0.2)
+    assert_same_slide_stops(kernel_map(design, commands, h=0.2), ref)

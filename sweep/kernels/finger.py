@@ -105,6 +105,45 @@ def tangency_slack(k, dist2, r):
 
 
 @inner
+def tangent_length_error(k, delta):
+    """Round-off of a tangent length k = sqrt(D - r^2) whose D carries an absolute error
+    delta: delta / (2 k), and sqrt(delta) once k^2 is below delta."""
+    return delta / (2.0 * k) if k * k > delta else math.sqrt(delta)
+
+
+@inner
+def rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2):
+    """(slack of k2, slack of t1) of MODEL 3.3's tangency: RANGE_TOL plus their round-off.
+    K = k2 + l1 cos(theta2_min) = sqrt(|d|^2 - r'^2) comes through asin(r'/|d|), which near 1
+    leaves K known only to about sqrt(eps) |d| and the angle to about K's error / r'. With
+    theta2_min near -90 deg a tangency at k2 = 0 (the distal link tangent at B as B grazes
+    the disc) is exactly there, and RANGE_TOL alone let round-off reject it (model-notes
+    D30)."""
+    dist2 = dx * dx + dy * dy
+    r_eff = r + l1 * math.sin(-theta2_min)
+    big = max(dist2, r_eff * r_eff)
+    dk = (tangent_length_error(max(k2 + l1 * math.cos(theta2_min), 0.0), 8.0 * EPS * big)
+          + 4.0 * EPS * (math.sqrt(dist2) + l1))
+    return RANGE_TOL + dk, RANGE_TOL + dk / r_eff + 8.0 * EPS
+
+
+@inner
+def distal_tangency_slack(dx, dy, t1, l1, r, k2):
+    """(slack of k2, slack of t2) of MODEL 3.2's tangency at a given t1: RANGE_TOL plus their
+    round-off. e = d - B cancels, so its components carry about eps (|d| + l1) and |e|^2 about
+    4 eps |e| (|d| + l1 + |e|); k2 and t2 then carry what tangency_slack says of such a
+    tangent (model-notes D30)."""
+    dist = math.sqrt(dx * dx + dy * dy)
+    ex = dx - l1 * math.cos(t1)
+    ey = dy - l1 * math.sin(t1)
+    e = math.sqrt(ex * ex + ey * ey)
+    err_e = 2.0 * EPS * (dist + l1)
+    dk = tangent_length_error(k2, 2.0 * e * err_e + 4.0 * EPS * e * e)
+    dt = err_e / max(e, r) + dk * r / (r * r + k2 * k2) + 8.0 * EPS * math.pi
+    return RANGE_TOL + dk, RANGE_TOL + dt
+
+
+@inner
 def proximal_tangency(dx, dy, r):
     """MODEL 3.1: (t1, k1) of the proximal link tangent to the part; k1 < 0 if d is inside the
     disc."""
@@ -168,6 +207,25 @@ def entry_cosine(dx, dy, rho, r):
         return 2.0
     dist = math.sqrt(dist2)
     return (rho * rho + dist2 - r * r) / (2.0 * rho * dist)
+
+
+@inner
+def joint_strike_angle(dx, dy, l1, r):
+    """MODEL 4 (revised): the rigid sweep's angle at which B, turning about J, strikes the
+    part. A graze of B counts (vertex_entry ignores it): a link attached to B enters the disc
+    just after, the distal link when the disc is outside B's circle (it leaves B at
+    theta2_min > -90 deg from the proximal, towards the centre) and the proximal link when it
+    is inside. A graze is the acos argument within RANGE_TOL below 1 or within its own
+    round-off above it (model-notes D30)."""
+    t_b = vertex_entry(dx, dy, l1, 0.0, r)
+    if t_b != NO_ANGLE:
+        return t_b
+    c = entry_cosine(dx, dy, l1, r)
+    dist2 = dx * dx + dy * dy
+    err_c = 4.0 * EPS * (l1 * l1 + dist2 + r * r) / (2.0 * l1 * math.sqrt(dist2))
+    if c < 1.0 - RANGE_TOL or c > 1.0 + err_c:
+        return NO_ANGLE
+    return math.atan2(dy, dx) - math.acos(min(c, 1.0))
 
 # =================================================================================================
 # Statics (MODEL 5.1, model-notes D15)
@@ -682,7 +740,12 @@ def closing_contact(dx, dy, finger, effects):
     # Rigid sweep, proximal tangency first (provably the earliest event when valid).
     t1, k1 = proximal_tangency(dx, dy, r)
     slack = tangency_slack(k1, dx * dx + dy * dy, r)  # a part touching the joint (stability.md)
-    if k1 <= l1 + RANGE_TOL and -slack <= t1 <= math.pi + slack:
+    slack_k1 = RANGE_TOL + tangent_length_error(k1, 4.0 * EPS * (dx * dx + dy * dy))
+    # a part the feasibility test lets dip below the palm line (y >= r - RANGE_TOL) already
+    # touches the open finger: an event's angle lies below 0 by that dip, not by round-off, and
+    # means a contact at rest (D30)
+    rest = 0.0 if dy >= r else -0.5 * math.pi
+    if k1 <= l1 + slack_k1 and rest - slack <= t1 <= math.pi + slack:
         t1 = clamp(t1, 0.0, math.pi)
         k1 = clamp(k1, 0.0, l1)
         return distal_closes_after_proximal(dx, dy, t1, k1, finger, effects.tip_contact)
@@ -693,20 +756,26 @@ def closing_contact(dx, dy, finger, effects):
     k1_out = 0.0
     k2_out = 0.0
     t1c, k2c = rigid_distal_tangency(dx, dy, l1, r, theta2_min)
-    if k2c >= -RANGE_TOL and k2c <= l2 + RANGE_TOL and in_range(t1c, 0.0, math.pi):
+    # validity within the closed form's own round-off (D30): a tangency rejected by round-off
+    # let the finger sweep on with its distal link through the part
+    slack_k2, slack_t1 = rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2c)
+    if -slack_k2 <= k2c <= l2 + slack_k2 and rest - slack_t1 <= t1c <= math.pi + slack_t1:
         best_t1 = t1c
         mode = DISTAL_ON_LOWER_STOP
-        k2_out = clamp(k2c, 0.0, l2)
+        # within its round-off of B the contact is at B, where it cannot stick (D10, D30):
+        # round-off must not decide between sticking and sliding
+        k2_out = clamp(k2c, 0.0, l2) if k2c > slack_k2 else 0.0
     # A vertex wins only if strictly earlier: at a tie the tangency covers the link's end.
-    t_b = vertex_entry(dx, dy, l1, 0.0, r)
-    if in_range(t_b, 0.0, math.pi) and t_b < best_t1 - RANGE_TOL:
+    t_b = joint_strike_angle(dx, dy, l1, r)
+    if in_range(t_b, rest, math.pi) and t_b < best_t1 - slack_t1:
         best_t1 = t_b
         mode = strike_mode(effects.tip_contact, JOINT_STRIKE)
         k1_out = l1
         k2_out = 0.0
     rho_t, delta_t = tip_polar(theta2_min, l1, l2)
     t_t = vertex_entry(dx, dy, rho_t, delta_t, r)
-    if in_range(t_t, 0.0, math.pi) and t_t < best_t1 - RANGE_TOL:
+    tie = slack_t1 if mode == DISTAL_ON_LOWER_STOP else RANGE_TOL
+    if in_range(t_t, rest, math.pi) and t_t < best_t1 - tie:
         best_t1 = t_t
         mode = strike_mode(effects.tip_contact, TIP_ON_LOWER_STOP)
         k1_out = 0.0
@@ -717,7 +786,8 @@ def closing_contact(dx, dy, finger, effects):
     # No event before the proximal stop: the distal closes about B with t1 = pi.
     t1 = math.pi
     t2, k2 = distal_tangency(dx, dy, t1, l1, r)
-    if k2 <= l2 + RANGE_TOL and in_range(t2, theta2_min, theta2_max):
+    slack_k2, slack_t2 = distal_tangency_slack(dx, dy, t1, l1, r, k2)
+    if k2 <= l2 + slack_k2 and theta2_min - slack_t2 <= t2 <= theta2_max + slack_t2:
         return FingerState(DISTAL_ON_PROXIMAL_STOP, t1, clamp(t2, theta2_min, theta2_max), 0.0,
                            clamp(k2, 0.0, l2), False)
     t2_tip = tip_entry_about_distal_joint(dx, dy, t1, l1, l2, r)
@@ -754,7 +824,9 @@ def distal_closes_after_proximal(dx, dy, t1, k1, finger, tip):
     strikes the part on the way, the paper's answer is kept and flagged (tip_contact off) or the tip
     is a contact (tip_contact, D15)."""
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    if k2 <= finger.l2 + RANGE_TOL and in_range(t2, finger.theta2_min, finger.theta2_max):
+    slack_k2, slack_t2 = distal_tangency_slack(dx, dy, t1, finger.l1, finger.r, k2)
+    if (k2 <= finger.l2 + slack_k2
+            and finger.theta2_min - slack_t2 <= t2 <= finger.theta2_max + slack_t2):
         return FingerState(TWO_PHALANX, t1, clamp(t2, finger.theta2_min, finger.theta2_max), k1,
                            clamp(k2, 0.0, finger.l2), False)
     # The distal reaches its limit; the paper keeps this answer even if the tip passes through
@@ -784,8 +856,10 @@ def reconfigure(dx, dy, t1_start, finger, solver, effects):
     if event == SLIP:
         return past_the_tip(effects.tip_contact, dx, dy, t1, t2, k2, finger, solver,
                             effects.joint_springs)
-    # the bracket end may lie past the distal stop by up to root_tol: report the stop itself
-    return FingerState(DISTAL_ONLY, t1, min(t2, finger.theta2_max), 0.0, k2, False)
+    # the bracket end may lie past the distal stop by up to root_tol: report the stop itself;
+    # and a contact near B, where 3.2's angle carries round-off, within the lower stop (D30)
+    return FingerState(DISTAL_ONLY, t1, clamp(t2, finger.theta2_min, finger.theta2_max), 0.0,
+                       k2, False)
 
 
 @inner
