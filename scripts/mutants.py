@@ -14,7 +14,8 @@ change any result, the proof (`equivalent:`). Add entries there when kernels cha
 
 Each mutant runs in its own copy of the package and the tests (the working tree is never
 touched), with a fresh Numba cache (NUMBA_CACHE_DIR set to a new empty folder, so every kernel
-is compiled from the mutated source) and `pytest -x` on the fast kernel tests (FAST_TESTS). The
+is compiled from the mutated source; a mutant outside the kernels' sources shares one cache of
+the unmutated kernels) and `pytest -x` on the fast kernel tests (FAST_TESTS). The
 installed package is an editable install whose import hook would load the working tree's
 `sweep`; the runner removes that hook so the copy is imported. A mutant is *killed* when a test
 fails, errors or times out, and *survives* when the tests pass. The unmutated copy runs first
@@ -121,9 +122,17 @@ def make_copy(dest: Path, mutant: Mutant | None) -> None:
         target.write_text(text.replace(mutant.find, mutant.replace, 1))
 
 
-def run_tests(copy: Path, tests, timeout: int) -> tuple[str, str, float]:
-    """(outcome, detail, seconds): outcome 'passed', 'failed' or 'timeout'."""
-    cache = Path(tempfile.mkdtemp(prefix="numba-cache-", dir=copy))
+def changes_kernels(m: Mutant) -> bool:
+    """Whether a mutant changes a file the kernels' cache is keyed by (kernels/__init__.py):
+    then its kernels compile anew; the others share one cache (their kernels are the same)."""
+    return m.path.startswith(KERNELS) or m.path in ("sweep/model.py", "sweep/schema.py")
+
+
+def run_tests(copy: Path, tests, timeout: int, cache: Path | None = None
+              ) -> tuple[str, str, float]:
+    """(outcome, detail, seconds): outcome 'passed', 'failed' or 'timeout'. `cache`: a Numba
+    cache to share (default: a new empty one in the copy)."""
+    cache = cache or Path(tempfile.mkdtemp(prefix="numba-cache-", dir=copy))
     env = {**os.environ, "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
     env.pop("PYTHONPATH", None)
     args = [sys.executable, "-c", BOOTSTRAP, str(copy), "-x", "-q", "-p", "no:cacheprovider",
@@ -179,12 +188,14 @@ def main(argv=None) -> int:
     results = []
     with tempfile.TemporaryDirectory(prefix="sweep-mutants-") as work:
         work = Path(work)
+        shared = work / "numba-cache-shared"   # the unmutated kernels, compiled once
+        shared.mkdir()
         if not args.skip_baseline:
             copy = work / "baseline"
             copy.mkdir()
             make_copy(copy, None)
             every = list(dict.fromkeys(t for m in mutants for t in tests_of(m)))
-            outcome, detail, seconds = run_tests(copy, every, args.timeout)
+            outcome, detail, seconds = run_tests(copy, every, args.timeout, shared)
             shutil.rmtree(copy, ignore_errors=True)
             print(f"baseline (no mutant): {outcome} in {seconds:.0f} s {detail}", flush=True)
             if outcome != "passed":
@@ -193,7 +204,8 @@ def main(argv=None) -> int:
             copy = work / f"m{k:03d}"
             copy.mkdir()
             make_copy(copy, m)
-            outcome, detail, seconds = run_tests(copy, tests_of(m), args.timeout)
+            outcome, detail, seconds = run_tests(copy, tests_of(m), args.timeout,
+                                                 None if changes_kernels(m) else shared)
             shutil.rmtree(copy, ignore_errors=True)
             status = "survived" if outcome == "passed" else "killed"
             results.append((m, status, detail, seconds))

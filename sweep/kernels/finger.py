@@ -232,8 +232,8 @@ def joint_strike_angle(dx, dy, l1, r):
 # =================================================================================================
 
 # What the rest of the finger can add to a joint's balance (the residual tau_i - contact_i):
-# (NumPy integers: a kernel passing a Python int constant compiles its callee once per value,
-# kernels/__init__.py.)
+# (NumPy integers: a kernel passing a Python int constant compiles its callee once per value:
+# docs/architecture.md, "One compilation for every scene".)
 BALANCE_EXACT = np.int64(0)      # nothing: the contact alone balances the joint
 BALANCE_POSITIVE = np.int64(1)   # >= 0: a proximal edge contact, the proximal or distal upper stop
 BALANCE_NEGATIVE = np.int64(-1)  # <= 0: the proximal or distal lower stop

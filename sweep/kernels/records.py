@@ -20,7 +20,7 @@ from .jit import entry, inner
 
 #: The fingers' indices in (finger, y, x) arrays. NumPy integers, never Python ones, as every
 #: constant a kernel passes to another kernel: Numba compiles a callee once per literal value of
-#: a Python constant argument (kernels/__init__.py).
+#: a Python constant argument (docs/architecture.md, "One compilation for every scene").
 LEFT = np.int64(0)
 RIGHT = np.int64(1)
 
