@@ -105,6 +105,13 @@ def tangency_slack(k, dist2, r):
 
 
 @inner
+def rigid_sweep_offset(r, l1, theta2_min):
+    """r' = r + l1 sin(-theta2_min): during the rigid sweep the distal link's line keeps this
+    distance from the joint J, so its tangency to the part reads d . b_y = r' (MODEL 3.3)."""
+    return r + l1 * math.sin(-theta2_min)
+
+
+@inner
 def tangent_length_error(k, delta):
     """Round-off of a tangent length k = sqrt(D - r^2) whose D carries an absolute error
     delta: delta / (2 k), and sqrt(delta) once k^2 is below delta."""
@@ -120,7 +127,7 @@ def rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2):
     the disc) is exactly there, and RANGE_TOL alone let round-off reject it (model-notes
     D30)."""
     dist2 = dx * dx + dy * dy
-    r_eff = r + l1 * math.sin(-theta2_min)
+    r_eff = rigid_sweep_offset(r, l1, theta2_min)
     big = max(dist2, r_eff * r_eff)
     dk = (tangent_length_error(max(k2 + l1 * math.cos(theta2_min), 0.0), 8.0 * EPS * big)
           + 4.0 * EPS * (math.sqrt(dist2) + l1))
@@ -173,7 +180,7 @@ def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
 
     Returns (inf, -1) if the distal line never reaches the part.
     """
-    r_eff = r + l1 * math.sin(-theta2_min)
+    r_eff = rigid_sweep_offset(r, l1, theta2_min)
     dist2 = dx * dx + dy * dy
     if dist2 < r_eff * r_eff * (1.0 - TOUCH_REL):
         return NO_ANGLE, -1.0
