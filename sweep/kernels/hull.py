@@ -240,8 +240,11 @@ def convex_hull(xs, ys):
             m += 1
     order = np.empty(m, dtype=np.int64)
     _sort_rows(buf, order, m)
-    ux = np.empty(m)
-    uy = np.empty(m)
+    # points and hull as the columns of (n, 2) arrays, as the reductions' rows hold them: the
+    # hull's helpers then compile once, for strided columns (one kernel set, no second signature)
+    unique = np.empty((m, 2))
+    ux = unique[:, X]
+    uy = unique[:, Y]
     u = np.int64(0)
     for i in range(m):
         k = order[i]
@@ -254,8 +257,9 @@ def convex_hull(xs, ys):
     expansion = np.empty(16)
     nv = _monotone_chain(ux, uy, u, chain, expansion)
     start = _canonical_start(ux, uy, chain, nv)
-    hx = np.empty(nv)
-    hy = np.empty(nv)
+    hull = np.empty((nv, 2))
+    hx = hull[:, X]
+    hy = hull[:, Y]
     for i in range(nv):
         c = chain[(start + i) % nv]
         hx[i] = ux[c]
@@ -583,7 +587,7 @@ def reduction_rebuild_ragged(seg_start, rows, rows_first, out_rows, out_first, o
     near points kept against the final hull), so adding points one at a time, merging chunks
     pairwise or rebuilding at once all give the same hull, values and usage."""
     n_poses = seg_start.shape[0] - 1
-    m = 1
+    m = np.int64(1)   # (not a Python 1: records.LEFT)
     for p in range(n_poses):
         m = max(m, seg_start[p + 1] - seg_start[p])
     n_blocks = _blocks(n_poses, n_blocks)
