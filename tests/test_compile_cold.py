@@ -4,8 +4,9 @@ In a new, empty kernel cache: both kernel sets of compute/warm.py compile each k
 one signature (a second signature would compile the kernel and everything below it again, and
 two processes compiling different signatures of one kernel could spoil the cache's index:
 docs/architecture.md, "One compilation for every scene"; `gather_row` copies three dtypes).
-In another: `ensure_compiled` (the two sets in two processes), then `make run`'s commands (both scenes with the refinement, and the report) on a small config
-compile nothing more: no cache file is added."""
+In another: `ensure_compiled` (the two sets in two processes), then `make run`'s commands (both
+scenes with the refinement, and the report) on a small config compile nothing more: no cache
+file is added."""
 from __future__ import annotations
 
 import json
