@@ -263,6 +263,22 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
 
 
 
+def validate_finger_friction(effects: Effects, mu_left: float | None,
+                             mu_right: float | None) -> None:
+    """Each finger's own contact friction (MODEL 10, Scenario C; None: the part's mu): a
+    number >= 0, and none above 0 without the friction effect (which makes every contact
+    frictionless). One-line ModelInputError."""
+    for name, value in (("mu_left", mu_left), ("mu_right", mu_right)):
+        if value is None:
+            continue
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and value >= 0):
+            raise ModelInputError(f"{name} must be >= 0, got {value!r}")
+        if value > 0 and not effects.friction:
+            raise ModelInputError(f"{name} = {value!r} needs the friction effect (without it "
+                                  "every contact is frictionless)")
+
+
 def validate_springs(design: Design, command: Command, limits: Limits, effects: Effects) -> None:
     """Joint springs weaker than the tendon over the whole joint range (model-notes D13): then
     the tendon still closes both joints everywhere and the closing sequence (MODEL 4) holds."""

@@ -15,13 +15,14 @@ from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREME
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
 from ..config.scene import Scene, grid_points
 from ..kernels import field
-from ..kernels.records import (Hand, ManipulationOut, RIGHT, LEFT, new_force_arrays,
+from ..kernels.records import (ManipulationOut, RIGHT, LEFT, new_force_arrays,
                                new_outcome_arrays, new_finger_arrays, no_force_arrays,
                                no_manipulation, no_settled_fingers)
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .manipulation import ManipulationChunk, PartReduction
-from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .layout import (finger_offsets, hand_record, kernel_records, map_fields, map_grid,
+                     summary_attrs)
 from .threads import over_ranges
 
 
@@ -86,7 +87,7 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
             finger, _, _ = kernel_records(design, part, limits, accuracy, effects)
             g = map_grid(design, part, Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
-            hand = Hand(float(w), command.f_left, command.f_right, float(h))
+            hand = hand_record(w, command, h, finger)
             ny, nx = g.shape
             fingers = new_finger_arrays(2, ny, nx)
             field.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
@@ -140,7 +141,7 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     force_arrays = new_force_arrays(ny, xs.shape[0]) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
     field.map_from_fingers(xs, ys, finger, solver,
-                           Hand(float(w), float(command.f_left), float(command.f_right), float(h)),
+                           hand_record(w, command, h, finger),
                            blocks, fingers, outs, force_arrays,
                            np.empty(ny * xs.shape[0], dtype=np.int64), summary, field.EVERY_POINT,
                            field.ALL_OUTPUTS, field.ALL_OUTPUTS, no_settled_fingers())

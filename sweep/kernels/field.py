@@ -100,6 +100,7 @@ from .records import (
     LEFT,
     RIGHT,
     SettledFingers,
+    side_finger,
     wants_manipulation,
     with_forces,
     with_joint_springs,
@@ -212,9 +213,11 @@ def collide_on_own_paths(x, y, finger, solver, effects, hand, collision, left, r
         return False, left, right
     dxl = -x - 0.5 * w
     dxr = x - 0.5 * w
-    on_l, t1sl, t2sl, k1sl = tip_path_start(dxl, y, left[0], left[1], left[2], finger, solver,
+    on_l, t1sl, t2sl, k1sl = tip_path_start(dxl, y, left[0], left[1], left[2],
+                                            side_finger(finger, hand, LEFT), solver,
                                             finger_effects(effects, hand.f_left))
-    on_r, t1sr, t2sr, k1sr = tip_path_start(dxr, y, right[0], right[1], right[2], finger, solver,
+    on_r, t1sr, t2sr, k1sr = tip_path_start(dxr, y, right[0], right[1], right[2],
+                                            side_finger(finger, hand, RIGHT), solver,
                                             finger_effects(effects, hand.f_right))
     path_l = (left[1], left[2], on_l, t1sl, t2sl, dxl, y)
     path_r = (right[1], right[2], on_r, t1sr, t2sr, dxr, y)
@@ -335,8 +338,10 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     no springs), and the meeting is not searched. `context`: hand.slide_context (the
     meeting found as on the grid) or hand.no_slide_context() (hand.collide)."""
     w = hand.w
-    sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
-    sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
+    sl = solve_finger(-x - 0.5 * w, y, side_finger(finger, hand, LEFT), solver,
+                      finger_effects(effects, hand.f_left))
+    sr = solve_finger(x - 0.5 * w, y, side_finger(finger, hand, RIGHT), solver,
+                      finger_effects(effects, hand.f_right))
     collision = effects.finger_collision
     if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
@@ -840,13 +845,14 @@ def fill_infeasible(j, i, fingers, outs, forces, forces_on):
 
 
 @inner
-def point_forces(j, i, finger, fingers, forces):
-    """Contact forces of both fingers at a feasible point (per unit tension, world frame).
-    Where finger_collision stopped a finger on the other, neither finger's forces are
-    determined (the finger-finger contact, model-notes D17)."""
-    touching = fingers_touch(fingers, j, i, finger)
+def point_forces(j, i, finger_l, finger_r, fingers, forces):
+    """Contact forces of both fingers at a feasible point (per unit tension, world frame), each
+    finger with its own friction (records.side_finger). Where finger_collision stopped a finger
+    on the other, neither finger's forces are determined (the finger-finger contact,
+    model-notes D17)."""
+    touching = fingers_touch(fingers, j, i, finger_l)
     for side in range(2):
-        st = finger_statics_at(fingers, side, j, i, finger)
+        st = finger_statics_at(fingers, side, j, i, finger_l if side == 0 else finger_r)
         forces.proximal_normal[side, j, i] = st.proximal_normal
         forces.distal_normal[side, j, i] = st.distal_normal
         forces.distal_multiplier[side, j, i] = st.distal_multiplier
@@ -895,6 +901,8 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed
     caged, caging_score = outs.caged, outs.caging_score
     forces_on = with_forces(forces)
+    finger_l = side_finger(finger, hand, LEFT)
+    finger_r = side_finger(finger, hand, RIGHT)
     for i in range(xs.shape[0]):
         x = xs[i]
         ml = np.int64(mode[0, j, i])
@@ -910,7 +918,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
             fill_infeasible(j, i, fingers, outs, forces, forces_on)
             continue
         if forces_on:
-            point_forces(j, i, finger, fingers, forces)
+            point_forces(j, i, finger_l, finger_r, fingers, forces)
         a1l = t1[0, j, i]
         a2l = t2[0, j, i]
         a1r = t1[1, j, i]
@@ -918,8 +926,9 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         energy[j, i] = point_energy(a1l, a2l, a1r, a2r, finger, hand, springs)
         eq = False
         if c == REACHED and equilibrium:
-            eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
-                                     a1r, a2r, finger.l1, finger.l2, tip)
+            eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, hand.mu_left,
+                                     hand.mu_right, ml, a1l, a2l, mr, a1r, a2r, finger.l1,
+                                     finger.l2, tip)
             equilibrium_out[j, i] = eq
         l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
@@ -1287,7 +1296,7 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
             xs, fingers = gather_fingers(shared, m_lo, steps[k], cell_ncols[k], ny, h)
             outs = new_outcome_arrays(ny, xs.shape[0])
             stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-            hand = Hand(ws[k], f_left, f_right, h)
+            hand = Hand(ws[k], f_left, f_right, h, finger.mu_s, finger.mu_s)
             settled = no_settled_fingers()
             if collision:  # the settled fingers' links, as gather_fingers reads the shared field
                 settled = SettledFingers(True, links, cell_ncols[k] - steps[k] - m_lo, -1,

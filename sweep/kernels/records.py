@@ -33,7 +33,8 @@ class FingerModel(NamedTuple):
     r1: float           # proximal pulley radius
     r2: float           # distal pulley radius
     r: float            # part (disc) radius
-    mu_s: float         # static friction coefficient between part and links (0: frictionless)
+    mu_s: float         # static friction coefficient of the part (0: frictionless): the palm's,
+                        # and the links' unless Hand gives a finger another (side_finger)
     theta2_min: float   # distal joint limits (rad); theta1 is always within [0, pi]
     theta2_max: float
 
@@ -151,12 +152,27 @@ def no_settled_fingers():
 
 
 class Hand(NamedTuple):
-    """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
+    """What a map adds to two fingers of one geometry: palm width, tendon tensions, grid
+    spacing, and the friction coefficient of each finger's contacts with the part (MODEL 10,
+    Scenario C: a finger's surface may differ from the part's nominal mu_s, which FingerModel
+    carries and the palm keeps; the paper's model has both equal to it)."""
 
     w: float
     f_left: float
     f_right: float
     h: float
+    mu_left: float
+    mu_right: float
+
+
+@inner
+def side_finger(finger, hand, side):
+    """The FingerModel of one finger of the hand (side LEFT or RIGHT): `finger` with its
+    contacts' friction, hand.mu_left or hand.mu_right (MODEL 10, Scenario C). A finger solves
+    alone (MODEL 4-5), so its friction is all that differs between the two."""
+    mu = hand.mu_left if side == LEFT else hand.mu_right
+    return FingerModel(finger.l1, finger.l2, finger.r1, finger.r2, finger.r, mu,
+                       finger.theta2_min, finger.theta2_max)
 
 
 class FingerState(NamedTuple):
