@@ -102,6 +102,7 @@ from .records import (
     SettledFingers,
     side_finger,
     wants_manipulation,
+    wants_scenario_c,
     with_forces,
     with_joint_springs,
 )
@@ -1213,6 +1214,105 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
                 a_count[j, a] = n + 1
 
 
+@inner
+def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, statics_l, links_r,
+                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy):
+    """Scenario C (MODEL 10): the counted poses of one map whose left finger touches the part
+    with friction hand.mu_left and the right with hand.mu_right (the palm: finger.mu_s), the
+    left finger read from the shared field `left` (solved at that friction, with its links and
+    statics), the right from `right`; every command's force (F_left of `commands`, F_right = 2 -
+    F_left) into the per-pose buffers.
+
+    The count rule of collect_counted_forces, pose by pose, with the same functions, so that a
+    pair's poses are those of its map (`compute_map(mu_left=, mu_right=)`): settled fingers
+    first (class, palm, statics, containment, S_geo), then finger_collision where the settled
+    fingers cross (hand.collide: a finger stopped on the other leaves the pose undetermined,
+    D17), then the part's equilibrium with each contact's own cone."""
+    r = finger.r
+    w = hand.w
+    collision = effects.finger_collision
+    mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
+    mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for col in range(xs.shape[0]):
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared fields' columns (gather_fingers)
+            src_r = i - step - m_lo
+            ml = np.int64(mode_l[0, j, src_l])
+            mr = np.int64(mode_r[0, j, src_r])
+            if classify_point(y, r, ml, mr) != REACHED:
+                continue
+            x = xs[col]
+            if touches_palm(x, y, w, r):
+                continue
+            if statics_l[0, j, src_l] == 0.0 or statics_r[0, j, src_r] == 0.0:
+                continue
+            left_line = polyline_from_links(LEFT, w, links_l[0, j, src_l], links_l[1, j, src_l],
+                                            links_l[2, j, src_l], links_l[3, j, src_l])
+            right_line = polyline_from_links(RIGHT, w, links_r[0, j, src_r],
+                                             links_r[1, j, src_r], links_r[2, j, src_r],
+                                             links_r[3, j, src_r])
+            if not part_contained(x, y, left_line, right_line):
+                continue
+            crossed = fingers_cross(left_line, right_line)
+            s_geo = cage_score(CONTAINED, 0.0 if crossed else tip_clearance(left_line,
+                                                                               right_line), r)
+            if s_geo <= 0.0:
+                continue
+            a1l, a2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
+            a1r, a2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
+            if crossed and collision.on:  # (fingers that do not cross are left as settled)
+                changed, new_l, new_r = collide(finger, w, collision, ml, a1l, a2l,
+                                                k1_l[0, j, src_l], k2_l[0, j, src_l], mr, a1r,
+                                                a2r, k1_r[0, j, src_r], k2_r[0, j, src_r])
+                if changed:
+                    if (rests_on_other_finger(new_l[0], new_l[1], new_l[2], finger)
+                            or rests_on_other_finger(new_r[0], new_r[1], new_r[2], finger)):
+                        continue
+                    ml, a1l, a2l = new_l[0], new_l[1], new_l[2]
+                    mr, a1r, a2r = new_r[0], new_r[1], new_r[2]
+                    if classify_point(y, r, ml, mr) != REACHED:
+                        continue
+            if part_in_equilibrium(scratch, x, y, w, r, finger.mu_s, hand.mu_left,
+                                   hand.mu_right, ml, a1l, a2l, mr, a1r, a2r, finger.l1,
+                                   finger.l2, effects.tip_contact):
+                continue
+            lx = -statics_l[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics_l[2, j, src_l]
+            rx = statics_r[1, j, src_r]
+            ry = statics_r[2, j, src_r]
+            a = col - ncol + ncol_max
+            for f_left in commands:
+                n = count[j, a]
+                fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                count[j, a] = n + 1
+
+
+@inner
+def append_forces(count, fx, fy, more_count, more_fx, more_fy):
+    """Each pose's forces in the `more` buffers appended to its own."""
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            for q in range(more_count[j, a]):
+                fx[j, a, n + q] = more_fx[j, a, q]
+                fy[j, a, n + q] = more_fy[j, a, q]
+            count[j, a] = n + more_count[j, a]
+
+
+@inner
+def friction_field(finger, mu, solver, effects, steps, ncols, ny, h):
+    """The shared finger field of a cell with the finger's contacts at friction `mu`, and its
+    links and statics (Scenario C's low-friction surface)."""
+    switched = FingerModel(finger.l1, finger.l2, finger.r1, finger.r2, finger.r, mu,
+                           finger.theta2_min, finger.theta2_max)
+    field, _, _ = shared_finger_field(switched, solver, effects, steps, ncols, ny, h)
+    links, statics = shared_finger_links_and_statics(field, switched)
+    return field, links, statics
+
+
 @entry
 def pose_radius_sum(count, fx, fy, pose_value, c):
     """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
@@ -1257,8 +1357,16 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     that filled it) are this call's memo of meetings (records.SettledFingers), filled while the
     next cell has the same links, cleared when the links change (empty arrays without it)."""
     manipulation = wants_manipulation(manip)
+    scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
     no_forces = no_force_arrays()
+    scratch = np.empty(SCRATCH_ANGLES)
+    # Scenario C's low-friction field depends on the cell without its mu (the cells of one
+    # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
+    low_key = np.full(5, np.nan)
+    low = new_finger_arrays(np.int64(1), np.int64(0), np.int64(0))
+    low_links = np.empty((4, 0, 0))
+    low_statics = np.empty((3, 0, 0))
     for c in range(first, last):
         finger = cell_finger_model(cells, c, theta2_min, theta2_max)
         ny = nys[c]
@@ -1267,6 +1375,7 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                      and cells[c + 1, 1] == cells[c, 1])
         shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, cell_ncols, ny, h)
         ncol_max = np.int64(0)
+        slots = 0
         a_count = np.zeros((0, 0), dtype=np.int64)
         a_fx = np.empty((0, 0, 0))
         a_fy = np.empty((0, 0, 0))
@@ -1281,6 +1390,24 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
             a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
             manip.n_entries[c] = 0
             links, statics = shared_finger_links_and_statics(shared, finger)
+        # Scenario C: the pairs with a finger on the low friction, unless it is the part's own
+        # (then the four pairs are A's one, and C is A)
+        mu_low = manip.c_mu_low[0] if scenario_c else finger.mu_s
+        switching = mu_low != finger.mu_s
+        c_count = np.zeros((0, 0), dtype=np.int64)
+        c_fx = np.empty((0, 0, 0))
+        c_fy = np.empty((0, 0, 0))
+        if switching:
+            c_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+            c_fx = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            c_fy = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            key = (finger.l1, finger.l2, finger.r1, finger.r2, finger.r)
+            if not (low_key[0] == key[0] and low_key[1] == key[1] and low_key[2] == key[2]
+                    and low_key[3] == key[3] and low_key[4] == key[4]):
+                low, low_links, low_statics = friction_field(finger, mu_low, solver, effects,
+                                                             steps, cell_ncols, ny, h)
+                for q in range(5):
+                    low_key[q] = key[q]
         elif collision:
             links = shared_finger_links(shared, finger)
         memo_read = False
@@ -1308,5 +1435,21 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                 collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
                                        steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
                                        a_fx, a_fy)
+            if switching:  # (mu_low, mu_s), (mu_s, mu_low), (mu_low, mu_low)
+                for pair in range(3):
+                    mu_l = mu_low if pair != 1 else finger.mu_s
+                    mu_r = mu_low if pair != 0 else finger.mu_s
+                    collect_pair_forces(
+                        xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_l, mu_r), effects,
+                        low if pair != 1 else shared, low if pair != 0 else shared,
+                        low_links if pair != 1 else links, low_statics if pair != 1 else statics,
+                        low_links if pair != 0 else links, low_statics if pair != 0 else statics,
+                        m_lo, steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch,
+                        c_count, c_fx, c_fy)
         if manipulation:
             manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
+        if switching:
+            append_forces(c_count, c_fx, c_fy, a_count, a_fx, a_fy)
+            manip.c_metric[c] = pose_radius_sum(c_count, c_fx, c_fy, manip.c_pose_value, c)
+        elif scenario_c:  # mu_low is the part's own: the same forces as A
+            manip.c_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.c_pose_value, c)

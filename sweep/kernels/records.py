@@ -252,7 +252,10 @@ class ManipulationOut(NamedTuple):
     part's lattice, the force (f_L + f_R) S_geo of the command F_left = F_right = 1, the width's
     index, whether the fingers cross there; n_entries[c] may exceed the capacity (then the cell
     must be redone with more). Scenario A: a_metric[c] = sum over poses of the inscribed radius of
-    the hull of the cell's forces over its widths and the commands F_left + F_right = 2."""
+    the hull of the cell's forces over its widths and the commands F_left + F_right = 2.
+    Scenario C (when c_mu_low has its one value, else empty): c_metric[c] the same over A's
+    forces and those of each finger switched to the low friction c_mu_low[0] (the four friction
+    pairs of MODEL 10)."""
 
     pose: np.ndarray          # (n_cells, capacity) int64
     fx: np.ndarray            # (n_cells, capacity)
@@ -265,6 +268,15 @@ class ManipulationOut(NamedTuple):
     a_commands: np.ndarray    # (n_commands,) F_left of Scenario A (F_right = 2 - F_left)
     a_pose_value: np.ndarray  # (n_cells, rows, columns) per-pose A values on the cell's widest
                               # map's grid when asked for (pictures), else (0, 0, 0)
+    c_mu_low: np.ndarray      # (1,) Scenario C's low friction when asked for, else (0,)
+    c_metric: np.ndarray      # (n_cells,) with Scenario C, else (0,)
+    c_pose_value: np.ndarray  # as a_pose_value, of Scenario C
+
+
+def no_scenario_c():
+    """ManipulationOut's Scenario C fields when C is not asked for: (c_mu_low, c_metric,
+    c_pose_value), empty."""
+    return np.zeros(0), np.zeros(0), np.zeros((0, 0, 0))
 
 
 def no_manipulation():
@@ -273,13 +285,20 @@ def no_manipulation():
     return ManipulationOut(np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0)),
                            np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=np.bool_),
                            np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64),
-                           np.zeros(0), np.zeros((0, 0, 0)))
+                           np.zeros(0), np.zeros((0, 0, 0)), *no_scenario_c())
 
 
 @inner
 def wants_manipulation(manip):
     """Whether the manipulation metric is asked for: `manip` has a row per cell."""
     return manip.n_entries.shape[0] > 0
+
+
+@inner
+def wants_scenario_c(manip):
+    """Whether Scenario C is asked for with the manipulation metric: `manip` has its low
+    friction."""
+    return manip.c_mu_low.shape[0] > 0
 
 
 @entry
