@@ -190,6 +190,11 @@ TRAJECTORY_ALIASES = {"discrete": "grid8"}
 STREAMLINE_STEP = 0.5
 
 
+#: Scenario C's low friction when a config does not give it (MODEL 10: a near-frictionless
+#: surface, as in variable-friction fingers).
+DEFAULT_MU_LOW = 0.0
+
+
 class ModelInputError(ValueError):
     """Bad user input, caught once at the edge (CLI exit code 2)."""
 

@@ -119,3 +119,162 @@ def test_scenario_c_matches_the_maps_of_each_friction_pair(candidate, part, mu_l
     ref = pair_map_metric(candidate, part, widths, mu_low, effects, 0.1)
     assert ref > 0 or (collision and candidate[0] == 2.0 and part[0] == 0.4)
     assert c == pytest.approx(ref, rel=1e-9, abs=1e-12)
+
+
+# ---------------------------------------------------------------------------------------------
+# The config, the store, chunks and merge, `sweep map`
+# ---------------------------------------------------------------------------------------------
+CONFIG = __import__("pathlib").Path(__file__).parent / "data" / "scenario_c.yaml"
+
+
+def _tiny_manipulation(**outputs):
+    from sweep_cases import tiny
+
+    return tiny(outputs={"manipulation": True, **outputs})
+
+
+@pytest.mark.parametrize("outputs, message", [
+    (dict(manipulation=False, scenario_c={"mu_low": 0.0}),
+     "outputs.scenario_c: is part of the manipulation metric"),
+    (dict(scenario_c={"mu_low": -0.1}), "outputs.scenario_c.mu_low: must be a number >= 0"),
+    (dict(scenario_c={"mu_low": "low"}), "outputs.scenario_c.mu_low: must be a number >= 0"),
+    (dict(scenario_c={"mu_low": True}), "outputs.scenario_c.mu_low: must be a number >= 0"),
+    (dict(scenario_c={"mu_lo": 0.0}), "outputs.scenario_c.mu_lo:"),
+    (dict(scenario_c=0.0), "outputs.scenario_c: must be true, false or a mapping"),
+], ids=["without-manipulation", "negative", "not-a-number", "bool", "unknown-key", "number"])
+def test_bad_scenario_c_configs_name_the_key(outputs, message):
+    from sweep.config.parse import scene_from_dict
+    from sweep.config.scene import SceneError
+
+    with pytest.raises(SceneError) as err:
+        scene_from_dict(_tiny_manipulation(**outputs))
+    assert str(err.value).startswith(message), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_scenario_c_needs_friction():
+    from sweep.config.parse import scene_from_dict
+    from sweep.config.scene import SceneError
+    from sweep_cases import tiny
+
+    cfg = tiny(parts={"mu": [0.0]}, effects={"friction": False},
+               outputs={"manipulation": True, "scenario_c": True})
+    with pytest.raises(SceneError, match="^outputs.scenario_c: switches the fingers' friction"):
+        scene_from_dict(cfg)
+
+
+def test_scenario_c_in_the_scene_and_its_identity():
+    from sweep.config.parse import scene_from_dict
+
+    off = scene_from_dict(_tiny_manipulation())
+    assert not off.scenario_c and off.scenario_c_mu_low is None
+    assert scene_from_dict(_tiny_manipulation(scenario_c=False)).config_hash == off.config_hash
+    default = scene_from_dict(_tiny_manipulation(scenario_c=True))
+    assert default.scenario_c_mu_low == 0.0
+    low = scene_from_dict(_tiny_manipulation(scenario_c={"mu_low": 0.05}))
+    assert low.scenario_c_mu_low == 0.05
+    # C's metrics are in the block files: a run with it never resumes or merges one without
+    assert len({off.config_hash, default.config_hash, low.config_hash}) == 3
+    assert default.cell_bytes() > off.cell_bytes()
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    out = tmp_path_factory.mktemp("c") / "c.h5"
+    res = CliRunner().invoke(main, ["run", str(CONFIG), "--out", str(out), "--no-progress"])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_the_store_holds_scenario_c(store):
+    import xarray as xr
+
+    with xr.open_dataset(store, engine="h5netcdf") as ds:
+        a, c = ds["manipulation_a"], ds["manipulation_c"]
+        assert c.dims == ("l1", "l2", "r1", "r2", "r", "mu")
+        assert ds.attrs["manipulation_scenario_c_mu_low"] == 0.0
+        assert "friction pair" in ds.attrs["manipulation_scenario_c_note"]
+        assert c.attrs["units"] and c.attrs["long_name"]
+        assert (c.values >= a.values).all()
+        assert (c.values > a.values).any()
+        h = ds.attrs["grid_h"]
+        np.testing.assert_array_equal(ds["manipulation_c_area"].values, c.values * (h * h))
+        # one candidate and part against the sweep's own cell
+        l1, l2, r1, r2, r, mu = 1.6, 0.8, 0.16, 0.14, 0.4, 1.0
+        widths = tuple(ds["w"].values)
+        stored = float(c.sel(l1=l1, l2=l2, r1=r1, r2=r2, r=r, mu=mu))
+    n_col = world_lattice([(w, 1.6, 0.8, 0, 0) for w in widths], r, 0.2)[1][0]
+    _, chunk = manipulation_cells(np.array([[l1, l2, r1, r2, r, mu]]), np.array(widths), 0.2,
+                                  Limits(), Accuracy(), Effects(), np.array([0]),
+                                  np.array([[0, 0]]), np.array([n_col]), mu_low=0.0)
+    assert stored == chunk.c_metric[0]
+
+
+def test_a_chunked_run_with_scenario_c_merges_to_the_same_bytes(store, tmp_path):
+    import h5py
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    runner = CliRunner()
+    for chunk in range(2):
+        res = runner.invoke(main, ["run", str(CONFIG), "--chunk", str(chunk), "--chunks", "2",
+                                   "--out", str(tmp_path / "run"), "--no-progress"])
+        assert res.exit_code == 0, res.output
+    res = runner.invoke(main, ["merge", str(tmp_path / "run"), "--out", str(tmp_path / "m.h5")])
+    assert res.exit_code == 0, res.output
+    with h5py.File(store) as whole, h5py.File(tmp_path / "m.h5") as merged:
+        for name in ("manipulation_a", "manipulation_c", "manipulation_c_area",
+                     "manipulation_b"):
+            assert whole[name][...].tobytes() == merged[name][...].tobytes(), name
+
+
+REFERENCE = ["--l1", "2.0", "--l2", "1.6", "--r1", "0.2", "--r2", "0.14", "--w", "0.8",
+             "--r", "0.4", "--mu", "0.4", "--h", "0.2"]
+
+
+def test_sweep_map_with_per_finger_friction(tmp_path):
+    import json
+
+    import h5py
+    import xarray as xr
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    runner = CliRunner()
+    plain, same, switched = (tmp_path / f"{k}.h5" for k in ("plain", "same", "switched"))
+    for out, extra in ((plain, []), (same, ["--mu-left", "0.4"]),
+                       (switched, ["--mu-left", "0", "--mu-right", "0.4"])):
+        res = runner.invoke(main, ["map", *REFERENCE, *extra, "--out", str(out)])
+        assert res.exit_code == 0, res.output
+    assert "finger friction: left 0, right 0.4 (palm 0.4)" in res.output
+    with xr.open_dataset(plain, engine="h5netcdf") as p, \
+            xr.open_dataset(same, engine="h5netcdf") as s, \
+            xr.open_dataset(switched, engine="h5netcdf") as w:
+        assert "finger_friction" not in p.attrs
+        for name in p.data_vars:
+            np.testing.assert_array_equal(p[name].values, s[name].values, err_msg=name)
+        assert not np.array_equal(p["finger_mode"].values, w["finger_mode"].values)
+    with h5py.File(switched) as f:
+        assert json.loads(f.attrs["finger_friction"]) == {"left": 0.0, "right": 0.4,
+                                                          "palm": 0.4}
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--mu-left", "-0.5"], "--mu-left must be >= 0"),
+    (["--mu-right", "nan"], "--mu-right must be >= 0"),
+])
+def test_sweep_map_refuses_bad_finger_frictions(tmp_path, extra, message):
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    res = CliRunner().invoke(main, ["map", *REFERENCE, *extra, "--out", str(tmp_path / "m.h5")])
+    assert res.exit_code == 2
+    assert message in res.output
+    assert not (tmp_path / "m.h5").exists()

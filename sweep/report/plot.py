@@ -268,7 +268,7 @@ def _title(m) -> tuple[str, str]:
 
 def _finger_mu_text(m) -> str:
     """The fingers' own friction where a map gives them one (MODEL 10, Scenario C), else ""."""
-    if getattr(m, "mu_left", None) is None and getattr(m, "mu_right", None) is None:
+    if m.mu_left is None and m.mu_right is None:
         return ""
     left = m.part.mu if m.mu_left is None else m.mu_left
     right = m.part.mu if m.mu_right is None else m.mu_right
