@@ -154,7 +154,8 @@ def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
         total += (n_shared * ny * 7 * 8 + ny * nx_max * (8 + 2 * 8 * slots)
                   + ENTRY_CAPACITY * (4 * 8 + 1))
         if scenario_c:
-            total += n_shared * ny * (FINGER_BYTES + 7 * 8) + ny * nx_max * (8 + 2 * 8 * 4 * slots)
+            # C's buffers (4 slots a width and command) and the (mu_low, mu_low) pair's (1)
+            total += n_shared * ny * (FINGER_BYTES + 7 * 8) + ny * nx_max * (16 + 16 * 5 * slots)
     return total
 
 

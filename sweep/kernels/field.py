@@ -794,6 +794,9 @@ SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edg
 # caging outputs on, the only finger of a shared field, a part taken as contained.
 EVERY_POINT, STABLE_POINTS = np.bool_(True), np.bool_(False)
 ALL_OUTPUTS = np.bool_(True)
+MIRRORED = np.bool_(True)
+WHOLE_ROWS = np.bool_(False)
+HALF_ROWS = np.bool_(True)
 SHARED = np.int64(0)
 CONTAINED = np.bool_(True)
 NO_CLASS = np.int64(INFEASIBLE)
@@ -1216,7 +1219,8 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
 
 @inner
 def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, statics_l, links_r,
-                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy):
+                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy,
+                        mirror, half):
     """Scenario C (MODEL 10): the counted poses of one map whose left finger touches the part
     with friction hand.mu_left and the right with hand.mu_right (the palm: finger.mu_s), the
     left finger read from the shared field `left` (solved at that friction, with its links and
@@ -1227,15 +1231,22 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
     pair's poses are those of its map (`compute_map(mu_left=, mu_right=)`): settled fingers
     first (class, palm, statics, containment, S_geo), then finger_collision where the settled
     fingers cross (hand.collide: a finger stopped on the other leaves the pose undetermined,
-    D17), then the part's equilibrium with each contact's own cone."""
+    D17), then the part's equilibrium with each contact's own cone.
+
+    `mirror`: each counted pose x = i h also gives the pose -x of the swapped pair (left with
+    hand.mu_right, right with hand.mu_left), its mirror image (the model is mirror-symmetric,
+    MODEL 11; the fields, links and statics are the same numbers, and its forces are formed as
+    the swapped pair's own would be, bit for bit); with `half` (a pair that is its own swap),
+    only the poses x <= 0 are visited."""
     r = finger.r
     w = hand.w
     collision = effects.finger_collision
     mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
     mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
+    n_cols = ncol + 1 if half else xs.shape[0]
     for j in range(ys.shape[0]):
         y = ys[j]
-        for col in range(xs.shape[0]):
+        for col in range(n_cols):
             i = col - ncol                    # world column: x = i h
             src_l = -i - step - m_lo          # the shared fields' columns (gather_fingers)
             src_r = i - step - m_lo
@@ -1288,6 +1299,15 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
                 fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
                 fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
                 count[j, a] = n + 1
+            if mirror and not (half and i == 0):
+                # the swapped pair at -x: its left finger is this right one mirrored (x force
+                # -rx), its right finger this left one (x force -lx)
+                a = -i + ncol_max
+                for f_left in commands:
+                    n = count[j, a]
+                    fx[j, a, n] = (f_left * -rx + (2.0 - f_left) * -lx) * s_geo
+                    fy[j, a, n] = (f_left * ry + (2.0 - f_left) * ly) * s_geo
+                    count[j, a] = n + 1
 
 
 @inner
@@ -1313,6 +1333,20 @@ def friction_field(finger, mu, solver, effects, steps, ncols, ny, h):
     return field, links, statics
 
 
+@inner
+def surrounds_origin(fx, fy):
+    """Forces on both sides of the origin in x and in y: without that, the origin is not
+    strictly inside their hull and the pose's value is 0 (hull.inscribed_radius returns 0 for
+    such a hull, so this only spares the hull)."""
+    left = right = below = above = False
+    for q in range(fx.shape[0]):
+        left |= fx[q] < 0.0
+        right |= fx[q] > 0.0
+        below |= fy[q] < 0.0
+        above |= fy[q] > 0.0
+    return left and right and below and above
+
+
 @entry
 def pose_radius_sum(count, fx, fy, pose_value, c):
     """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
@@ -1323,7 +1357,7 @@ def pose_radius_sum(count, fx, fy, pose_value, c):
         for a in range(count.shape[1]):
             n = count[j, a]
             value = 0.0
-            if n >= 3:
+            if n >= 3 and surrounds_origin(fx[j, a, :n], fy[j, a, :n]):
                 hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
                 value = inscribed_radius(hx, hy, hx.shape[0])
             total += value
@@ -1367,6 +1401,11 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     low = new_finger_arrays(np.int64(1), np.int64(0), np.int64(0))
     low_links = np.empty((4, 0, 0))
     low_statics = np.empty((3, 0, 0))
+    # the pair (mu_low, mu_low) does not depend on the part's mu either (palm poses never
+    # count): its forces, kept with the field
+    low_count = np.zeros((0, 0), dtype=np.int64)
+    low_fx = np.empty((0, 0, 0))
+    low_fy = np.empty((0, 0, 0))
     for c in range(first, last):
         finger = cell_finger_model(cells, c, theta2_min, theta2_max)
         ny = nys[c]
@@ -1397,17 +1436,23 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
         c_count = np.zeros((0, 0), dtype=np.int64)
         c_fx = np.empty((0, 0, 0))
         c_fy = np.empty((0, 0, 0))
+        fresh_low = False
         if switching:
             c_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
             c_fx = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
             c_fy = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
             key = (finger.l1, finger.l2, finger.r1, finger.r2, finger.r)
-            if not (low_key[0] == key[0] and low_key[1] == key[1] and low_key[2] == key[2]
-                    and low_key[3] == key[3] and low_key[4] == key[4]):
+            fresh_low = not (low_key[0] == key[0] and low_key[1] == key[1]
+                             and low_key[2] == key[2] and low_key[3] == key[3]
+                             and low_key[4] == key[4])
+            if fresh_low:
                 low, low_links, low_statics = friction_field(finger, mu_low, solver, effects,
                                                              steps, cell_ncols, ny, h)
                 for q in range(5):
                     low_key[q] = key[q]
+                low_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+                low_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+                low_fy = np.empty((ny, 2 * ncol_max + 1, slots))
         elif collision:
             links = shared_finger_links(shared, finger)
         memo_read = False
@@ -1435,20 +1480,23 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                 collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
                                        steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
                                        a_fx, a_fy)
-            if switching:  # (mu_low, mu_s), (mu_s, mu_low), (mu_low, mu_low)
-                for pair in range(3):
-                    mu_l = mu_low if pair != 1 else finger.mu_s
-                    mu_r = mu_low if pair != 0 else finger.mu_s
-                    collect_pair_forces(
-                        xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_l, mu_r), effects,
-                        low if pair != 1 else shared, low if pair != 0 else shared,
-                        low_links if pair != 1 else links, low_statics if pair != 1 else statics,
-                        low_links if pair != 0 else links, low_statics if pair != 0 else statics,
-                        m_lo, steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch,
-                        c_count, c_fx, c_fy)
+            if switching:
+                # (mu_low, mu_s), and its mirror image (mu_s, mu_low)
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, finger.mu_s),
+                    effects, low, shared, low_links, low_statics, links, statics, m_lo,
+                    steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch, c_count,
+                    c_fx, c_fy, MIRRORED, WHOLE_ROWS)
+            if fresh_low:  # (mu_low, mu_low), its own mirror image: half the poses
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, mu_low), effects,
+                    low, low, low_links, low_statics, low_links, low_statics, m_lo, steps[k],
+                    cell_ncols[k], ncol_max, manip.a_commands, scratch, low_count, low_fx,
+                    low_fy, MIRRORED, HALF_ROWS)
         if manipulation:
             manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
         if switching:
+            append_forces(c_count, c_fx, c_fy, low_count, low_fx, low_fy)
             append_forces(c_count, c_fx, c_fy, a_count, a_fx, a_fy)
             manip.c_metric[c] = pose_radius_sum(c_count, c_fx, c_fy, manip.c_pose_value, c)
         elif scenario_c:  # mu_low is the part's own: the same forces as A
