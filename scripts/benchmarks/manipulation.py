@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .timing import header, print_side_by_side, side_by_side, timed
+from .timing import header, medians, print_side_by_side, side_by_side, timed
 
 NAME = "manipulation"
 ROOT = Path(__file__).resolve().parents[2]
@@ -57,6 +57,11 @@ def run(args) -> int:
         fn, sc = compute[name]
         return timed(lambda: [fn(sc, a, b) for a, b in ranges])
 
+    times = side_by_side(list(compute), measure, args.repeats)
     print_side_by_side(f"{len(ranges)} geometry groups of {args.config.name} ({n_maps} maps, "
-                       f"h = {scene.h})", side_by_side(list(compute), measure, args.repeats))
+                       f"h = {scene.h})", times)
+    if args.scenario_c is not None:  # what `make run` would pay for C: against A and B alone
+        (_, (wall_m, cpu_m)), (name, (wall_c, cpu_c)) = list(medians(times).items())[1:]
+        print(f"- ratio {name} / caging + manipulation: {wall_c / wall_m:.3f} "
+              f"(cpu {cpu_c / cpu_m:.3f})")
     return 0
