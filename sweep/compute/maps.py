@@ -15,7 +15,7 @@ from ..kernels.field import EVERY_POINT, finger_rows, map_from_fingers
 from ..kernels.records import (LEFT, RIGHT, new_finger_arrays, new_force_arrays,
                                new_outcome_arrays, no_force_arrays, no_settled_fingers)
 from ..grid import map_bytes_per_point
-from ..model import (Accuracy, Command, Design, Effects, Grid, Limits, Outputs, Part,
+from ..model import (END_CAGED, Accuracy, Command, Design, Effects, Grid, Limits, Outputs, Part,
                      validate_finger_friction, validate_inputs, validate_scene)
 from ..schema import SUMMARY_FIELDS
 from .layout import (EnergyMap, finger_offsets, hand_record, kernel_records, map_fields, map_grid,
@@ -93,3 +93,22 @@ def scene_map(scene, design: dict, r: float, mu: float, mu_left: float | None = 
     return compute_map(Design(**design), Part(r=float(r), mu=float(mu)), scene.commands[0],
                        Grid(h=scene.h), scene.limits, scene.accuracy, scene.effects,
                        mu_left=mu_left, mu_right=mu_right)
+
+
+def draw_in_then_hold(draw: EnergyMap, hold: EnergyMap) -> tuple[float, int]:
+    """Caging under friction modulation, "draw in, then hold" (MODEL 10, Scenario C): a start
+    point counts when its trajectory on `draw` (the fingers on the low friction) ends CAGED at a
+    point q, and the trajectory from q on `hold` (the fingers on the part's friction; the same
+    design, part, command and grid) ends CAGED too. Returns (Lambda, counted starts): Lambda
+    sums, over the counted starts, the caging score of the point where the part is finally held
+    (MODEL 8's Lambda with S_end taken at the end of the second trajectory; model-notes D33)."""
+    if not (np.array_equal(draw.x, hold.x) and np.array_equal(draw.y, hold.y)):
+        raise ValueError("draw in, then hold: the two maps must share one grid")
+    for m in (draw, hold):
+        if "end_index" not in m.fields:
+            raise ValueError("draw in, then hold: the maps need the caging output (trajectories)")
+    drawn = np.asarray(draw.fields["end_state"]).ravel() == END_CAGED
+    q = np.asarray(draw.fields["end_index"]).ravel()[drawn]
+    held = np.asarray(hold.fields["end_state"]).ravel()[q] == END_CAGED
+    ends = np.asarray(hold.fields["end_index"]).ravel()[q[held]]
+    return float(np.asarray(hold.fields["caging_score"]).ravel()[ends].sum()), int(held.sum())

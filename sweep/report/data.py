@@ -97,6 +97,16 @@ class StoreData:
         return {d: float(self.ds[d].values[i]) for d, i in zip(DESIGN_DIMS, idx)}
 
     @property
+    def scenario_c(self) -> bool:
+        """The store holds Scenario C, friction modulation (MODEL 10; `outputs.scenario_c`)."""
+        return self.manipulation and "manipulation_c" in self.ds
+
+    @property
+    def mu_low(self) -> float:
+        """Scenario C's low friction (NaN without it)."""
+        return float(self.attrs.get("manipulation_scenario_c_mu_low", math.nan))
+
+    @property
     def refined(self) -> bool:
         """The store holds the refinement stage's variables (`sweep.runs.refine`)."""
         return "refine_status" in self.ds
@@ -130,6 +140,18 @@ def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
                        st.per_design("refined_caging_area", ri, mi),
                        st.per_design("caging_area", ri, mi))
     return np.argsort(-tie_key(st.per_design("Lambda", ri, mi)), kind="stable")
+
+
+def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
+    """(l1, l2, r1, r2) index tuples of the top-k caging designs of every part
+    (`design_ranking`: refined where the store is), duplicates merged, in store order: Scenario
+    A's candidates, and Scenario C's (MODEL 10)."""
+    shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
+    found = set()
+    for ri, mi in st.parts():
+        for k in design_ranking(st, ri, mi)[:top_k]:
+            found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
+    return sorted(found)
 
 
 def best_design(st: StoreData, ri: int, mi: int) -> dict:
@@ -313,4 +335,9 @@ class Comparison:
     best_candidates: tuple = ()
     manipulation: list[dict] = field(default_factory=list)
     usage: list[dict] = field(default_factory=list)
+    friction_candidates: list[dict] = field(default_factory=list)
+    friction_scenes: tuple = ()      # each scene's Scenario C rows (report.friction)
+    friction: list[dict] = field(default_factory=list)       # both side by side
+    modulation_scenes: tuple = ()    # each scene's caging-under-modulation rows
+    modulation: list[dict] = field(default_factory=list)     # both side by side
     files: list[str] = field(default_factory=list)

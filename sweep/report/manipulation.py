@@ -7,20 +7,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.batch import scenario_a_pose_values
-from .data import (CANDIDATE_DIMS, Comparison, DESIGN_DIMS, StoreData, design_ranking, fmt,
-                   part_text, scene_name, short_scene, tie_key)
+from .data import (CANDIDATE_DIMS, Comparison, StoreData, fmt, part_text, scenario_a_candidates,
+                   scene_name, short_scene, tie_key)
 from .style import NOTE_UNITLESS, SCENE_COLOURS
-
-
-def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
-    """(l1, l2, r1, r2) index tuples of the top-k caging designs of every part
-    (`design_ranking`: refined where the store is), duplicates merged, in store order."""
-    shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
-    found = set()
-    for ri, mi in st.parts():
-        for k in design_ranking(st, ri, mi)[:top_k]:
-            found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
-    return sorted(found)
 
 
 def candidate_rows(st: StoreData, top_k: int) -> list[dict]:
