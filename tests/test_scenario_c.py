@@ -278,3 +278,22 @@ def test_sweep_map_refuses_bad_finger_frictions(tmp_path, extra, message):
     assert res.exit_code == 2
     assert message in res.output
     assert not (tmp_path / "m.h5").exists()
+
+
+@pytest.mark.parametrize("plain, friction", [("paper.yaml", "paper-friction.yaml"),
+                                             ("paper-collision.yaml",
+                                              "paper-collision-friction.yaml")])
+def test_the_friction_configs_are_make_runs_with_scenario_c(plain, friction):
+    """`make friction` runs `make run`'s two scenes with Scenario C and nothing else changed."""
+    from pathlib import Path
+
+    from sweep.config.parse import load_scene
+
+    configs = Path(__file__).resolve().parent.parent / "configs"
+    a, c = load_scene(configs / plain), load_scene(configs / friction)
+    assert not a.scenario_c and c.scenario_c_mu_low == 0.0
+    ra, rc = a.resolved(), c.resolved()
+    assert rc["outputs"].pop("scenario_c") == {"mu_low": 0.0}
+    assert ra == rc
+    assert (a.refine, a.scenario_a_top_k, a.sub_chunk_cells) == (c.refine, c.scenario_a_top_k,
+                                                                c.sub_chunk_cells)
