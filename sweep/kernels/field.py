@@ -1402,7 +1402,7 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     low_links = np.empty((4, 0, 0))
     low_statics = np.empty((3, 0, 0))
     # the pair (mu_low, mu_low) does not depend on the part's mu either (palm poses never
-    # count): its forces, kept with the field
+    # count): its forces, kept with the field (the manipulation metric wants every width)
     low_count = np.zeros((0, 0), dtype=np.int64)
     low_fx = np.empty((0, 0, 0))
     low_fy = np.empty((0, 0, 0))
@@ -1429,6 +1429,8 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
             a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
             manip.n_entries[c] = 0
             links, statics = shared_finger_links_and_statics(shared, finger)
+        elif collision:
+            links = shared_finger_links(shared, finger)
         # Scenario C: the pairs with a finger on the low friction, unless it is the part's own
         # (then the four pairs are A's one, and C is A)
         mu_low = manip.c_mu_low[0] if scenario_c else finger.mu_s
@@ -1453,8 +1455,6 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                 low_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
                 low_fx = np.empty((ny, 2 * ncol_max + 1, slots))
                 low_fy = np.empty((ny, 2 * ncol_max + 1, slots))
-        elif collision:
-            links = shared_finger_links(shared, finger)
         memo_read = False
         if collision:
             memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
