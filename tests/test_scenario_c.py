@@ -55,6 +55,20 @@ def test_scenario_c_of_a_candidate_matches_the_reference(candidate, part, mu_low
 CELLS = st.tuples(paper_table_designs(), st.sets(st.integers(0, 5), min_size=1, max_size=3))
 
 
+@settings(max_examples=8)
+@given(design=paper_table_designs().filter(lambda d: d[0] + d[1] <= 2.0),
+       mu_low=st.sampled_from([0.0, 0.05, 0.5]))
+def test_scenario_c_matches_the_reference_on_random_designs_and_parts(design, mu_low):
+    """Random designs and parts of the paper's table, the shorter fingers (the reference solves
+    every pose of the lattice for each friction pair: a few seconds a design)."""
+    l1, l2, r1, r2, w, r, mu = design
+    geometries = [(w, l1, l2, r1, r2)]
+    ref = naive_metric(geometries, (r, mu), H, SCENARIO_A_COMMANDS,
+                       frictions=scenario_c_frictions(mu_low, mu))
+    _, c = kernel_metrics((l1, l2, r1, r2), (r, mu), (w,), mu_low=mu_low)
+    assert c == pytest.approx(ref["total"], rel=1e-9, abs=1e-12)
+
+
 @settings(max_examples=15)
 @given(CELLS)
 def test_scenario_c_with_mu_low_equal_to_mu_is_scenario_a_exactly(cell):
