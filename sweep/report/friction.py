@@ -328,7 +328,7 @@ def pair_figure(st1: StoreData, st2: StoreData, rep) -> Figure:
     ax.set_xlabel("part (radius r, friction μ)")
     ax.legend(fontsize=8, ncol=2)
     top.suptitle("Friction modulation (C, hatched //) beside one gripper (A, dotted) and "
-                 "variable geometry (B, solid), each scene in its colour; "
+                 "variable geometry (B, solid), each scene in its colour\n"
                  + "; ".join(f"{scene_name(st)}: {share_text(x)}"
                              for x, st in ((rep.friction_scenes[0], st1),
                                            (rep.friction_scenes[1], st2))), fontsize=11)
@@ -359,7 +359,8 @@ def pair_reading(st1: StoreData, st2: StoreData, rep) -> list[str]:
         none = [r for r in rows if r["verdict"] == "C adds nothing"]
         out.append(f"- Friction modulation, scene {s} ({scene_name(st)}): {share_text(rows)}; "
                    f"an alternative to variable geometry on {len(full)} parts ({_parts(full)}), "
-                   f"partly on {len(part)}, not at all on {len(none)} ({_parts(none)}); draw in "
+                   f"partly on {len(part)} ({_parts(part)}), not at all on {len(none)} "
+                   f"({_parts(none)}); draw in "
                    f"then hold cages {fmt(sum(r['area_dh'] for r in caging))} against "
                    f"{fmt(sum(r['area_s'] for r in caging))} on μ (summed caging areas).")
     differ = [r for r in rep.friction if r["verdict_1"] != r["verdict_2"]]
