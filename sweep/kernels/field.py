@@ -81,6 +81,7 @@ from .hull import convex_hull, inscribed_radius
 from .hand import (
     finger_polyline,
     fingers_cross,
+    friction_cones,
     link_vectors,
     part_contained,
     part_in_equilibrium,
@@ -907,6 +908,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     forces_on = with_forces(forces)
     finger_l = side_finger(finger, hand, LEFT)
     finger_r = side_finger(finger, hand, RIGHT)
+    cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
     for i in range(xs.shape[0]):
         x = xs[i]
         ml = np.int64(mode[0, j, i])
@@ -930,9 +932,8 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         energy[j, i] = point_energy(a1l, a2l, a1r, a2r, finger, hand, springs)
         eq = False
         if c == REACHED and equilibrium:
-            eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, hand.mu_left,
-                                     hand.mu_right, ml, a1l, a2l, mr, a1r, a2r, finger.l1,
-                                     finger.l2, tip)
+            eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, a1l, a2l, mr, a1r,
+                                     a2r, finger.l1, finger.l2, tip)
             equilibrium_out[j, i] = eq
         l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
@@ -1241,6 +1242,7 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
     r = finger.r
     w = hand.w
     collision = effects.finger_collision
+    cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
     mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
     mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
     n_cols = ncol + 1 if half else xs.shape[0]
@@ -1285,9 +1287,8 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
                     mr, a1r, a2r = new_r[0], new_r[1], new_r[2]
                     if classify_point(y, r, ml, mr) != REACHED:
                         continue
-            if part_in_equilibrium(scratch, x, y, w, r, finger.mu_s, hand.mu_left,
-                                   hand.mu_right, ml, a1l, a2l, mr, a1r, a2r, finger.l1,
-                                   finger.l2, effects.tip_contact):
+            if part_in_equilibrium(scratch, x, y, w, r, cones, ml, a1l, a2l, mr, a1r, a2r,
+                                   finger.l1, finger.l2, effects.tip_contact):
                 continue
             lx = -statics_l[1, j, src_l]         # the left finger's frame is mirrored in x
             ly = statics_l[2, j, src_l]
