@@ -26,7 +26,7 @@ run: $(STAMP)
 # Friction modulation (Scenario C, MODEL 10; the paper's future work) beside variable geometry:
 # the two scenes of `make run` with `outputs.scenario_c` (each finger on the part's mu or on a
 # low friction), then one report of both (friction.png, caging under modulation). Its own
-# target: Scenario C costs about 1.35x the manipulation sweep (docs/performance.md).
+# target: Scenario C costs 1.2-1.3x the manipulation sweep (docs/performance.md).
 friction: $(STAMP)
 	$(VENV)/bin/sweep run configs/paper-friction.yaml --out results/paper-friction.h5
 	$(VENV)/bin/sweep run configs/paper-collision-friction.yaml \
