@@ -153,6 +153,7 @@ def test_caging_under_modulation_of_the_best_a_candidate(made):
         stored = ds["Lambda"].sel(dict(zip(DESIGN, (*a_best, float(row["w_s"]))), r=r,
                                        mu=mu)).item()
         assert row["lambda_s"] == g(stored)
+        assert row["best_area"] == g(ds["caging_area"].sel(r=r, mu=mu).max().item())
 
 
 @pytest.mark.parametrize("design, part, mu_low", [

@@ -219,8 +219,8 @@ def friction_section(st: StoreData, rep: Report) -> list[str]:
         "Caging under modulation, A's best candidate (every quantity at the palm width where "
         "it is largest, w_*; Λ and caging area Λ h²; s: both fingers on the part's μ, low: "
         "both on μ_low with the palm on μ, dh: draw in on μ_low, then hold on μ; n_dh: the "
-        "starts that count; best_area: the part's best caging design over every geometry, "
-        "D33):", "",
+        "starts that count; best_area: the part's largest caging area over every geometry at "
+        "the same h, D33):", "",
         md_table(rep.modulation, friction.MODULATION_COLUMNS), "",
         "C's candidates, largest summed metric first (at most 20 here; all in the CSV):", "",
         md_table(sorted(rep.friction_candidates, key=lambda c: -c["c_sum"])[:20],

@@ -453,7 +453,8 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
               md_table(rep.friction, friction.PAIR_FRICTION_COLUMNS), "",
               "Caging under modulation of each scene's best A candidate (caging areas at the "
               "width where each is largest; s: fingers on μ, low: on μ_low, dh: draw in on "
-              "μ_low then hold on μ; best_area: the best design over every geometry):", "",
+              "μ_low then hold on μ; best_area: the largest over every geometry at the same h):",
+              "",
               md_table(rep.modulation, friction.PAIR_MODULATION_COLUMNS), "",
               "Best C candidates:", "",
               md_table([c for c in rep.friction_candidates if c["best"]], C_CAND_COLUMNS)]
