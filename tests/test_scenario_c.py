@@ -89,6 +89,19 @@ def test_scenario_c_is_never_below_scenario_a(collision, cell, mu_low):
     assert c >= a
 
 
+def test_scenario_c_is_at_least_a_pose_by_pose():
+    """Per pose, C's forces are a superset of A's: its value is never below A's, and the values
+    sum to the metrics."""
+    from sweep.compute.batch import scenario_a_pose_values, scenario_c_pose_values
+
+    candidate, part, widths = (2.0, 1.6, 0.20, 0.14), (0.8, 0.4), (0.0, 0.8, 1.6)
+    xa, ya, va, a = scenario_a_pose_values(candidate, part, widths, H)
+    xc, yc, vc, c = scenario_c_pose_values(candidate, part, widths, H, 0.0)
+    assert np.array_equal(xa, xc) and np.array_equal(ya, yc)
+    assert (vc >= va).all() and (vc > va).any()
+    assert va.sum() == pytest.approx(a) and vc.sum() == pytest.approx(c)
+
+
 def pair_map_metric(candidate, part, widths, mu_low, effects, h):
     """Scenario C from whole maps: for each width and friction pair the map of
     `compute_map(mu_left=, mu_right=)` with its forces, the count rule of MODEL 10 read from its

@@ -1388,9 +1388,11 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h, j = 0 .. nys[c] - 1. With `manip`
     (a ManipulationOut with a row per cell; without: records.no_manipulation()) the contact
     forces are computed too and row c of `manip` receives the cell's manipulation metric data
-    (MODEL 10). With finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell
-    that filled it) are this call's memo of meetings (records.SettledFingers), filled while the
-    next cell has the same links, cleared when the links change (empty arrays without it)."""
+    (MODEL 10), Scenario C's too when `manip` has its low friction (a second shared field at
+    that friction, the pairs with a switched finger: collect_pair_forces). With
+    finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it)
+    are this call's memo of meetings (records.SettledFingers), filled while the next cell has
+    the same links, cleared when the links change (empty arrays without it)."""
     manipulation = wants_manipulation(manip)
     scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
