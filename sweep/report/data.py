@@ -154,6 +154,26 @@ def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
     return sorted(found)
 
 
+def candidate_metric_rows(st: StoreData, top_k: int, scenario: str) -> list[dict]:
+    """Every candidate (`scenario_a_candidates`) with its Scenario `scenario` metric ("a" or
+    "c": the store's `manipulation_a` or `manipulation_c`, and its `_area`) summed over all
+    parts (`{scenario}_sum`, `{scenario}_area_sum`, `parts_positive`); the best one (largest
+    sum, first in store order among ties at TIE_DIGITS) is flagged."""
+    metric = st.ds[f"manipulation_{scenario}"].transpose(*CANDIDATE_DIMS, "r", "mu").values
+    area = st.ds[f"manipulation_{scenario}_area"].transpose(*CANDIDATE_DIMS, "r", "mu").values
+    rows = []
+    for c in scenario_a_candidates(st, top_k):
+        vals = {d: float(st.ds[d].values[i]) for d, i in zip(CANDIDATE_DIMS, c)}
+        rows.append({**vals, "R": vals["r2"] / vals["r1"],
+                     f"{scenario}_sum": float(np.nansum(metric[c])),
+                     f"{scenario}_area_sum": float(np.nansum(area[c])),
+                     "parts_positive": int(np.count_nonzero(metric[c] > 0)), "best": False,
+                     "index": c})
+    if rows:
+        rows[int(np.argmax(tie_key([row[f"{scenario}_sum"] for row in rows])))]["best"] = True
+    return rows
+
+
 def best_design(st: StoreData, ri: int, mi: int) -> dict:
     """The best caging design of one part and what backs it: the one place the report reads
     it. In a refined store: the refined best (its refined caging area, error estimate, lead over

@@ -11,8 +11,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.maps import draw_in_then_hold, scene_map
-from .data import (CANDIDATE_DIMS, StoreData, crossing, fmt, part_text,
-                   scenario_a_candidates, scene_name, tie_key)
+from .data import (CANDIDATE_DIMS, StoreData, candidate_metric_rows, crossing, fmt, part_text,
+                   scene_name, tie_key)
 from .style import NOTE_UNITLESS, SCENE_COLOURS
 
 #: A, C and B in every figure of this experiment
@@ -35,16 +35,9 @@ def c_candidate_rows(st: StoreData, top_k: int) -> list[dict]:
     with C's and A's metrics summed over all parts; the best by C (largest sum, first in store
     order among ties) is flagged."""
     a = st.ds["manipulation_a"].transpose(*CANDIDATE_DIMS, "r", "mu").values
-    c = st.ds["manipulation_c"].transpose(*CANDIDATE_DIMS, "r", "mu").values
-    c_area = st.ds["manipulation_c_area"].transpose(*CANDIDATE_DIMS, "r", "mu").values
-    rows = []
-    for k in scenario_a_candidates(st, top_k):
-        vals = {d: float(st.ds[d].values[i]) for d, i in zip(CANDIDATE_DIMS, k)}
-        rows.append(dict(**vals, R=vals["r2"] / vals["r1"], c_sum=float(np.nansum(c[k])),
-                         c_area_sum=float(np.nansum(c_area[k])), a_sum=float(np.nansum(a[k])),
-                         parts_positive=int(np.count_nonzero(c[k] > 0)), best=False, index=k))
-    if rows:
-        rows[int(np.argmax(tie_key([row["c_sum"] for row in rows])))]["best"] = True
+    rows = candidate_metric_rows(st, top_k, "c")
+    for row in rows:
+        row["a_sum"] = float(np.nansum(a[row["index"]]))
     return rows
 
 
