@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run map test lint test-slurm bench paper clean
+.PHONY: install run friction map test lint test-slurm bench paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,17 @@ run: $(STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
 	$(VENV)/bin/sweep run configs/paper-collision.yaml --out results/paper-collision.h5
 	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
+
+# Friction modulation (Scenario C, MODEL 10; the paper's future work) beside variable geometry:
+# the two scenes of `make run` with `outputs.scenario_c` (each finger on the part's mu or on a
+# low friction), then one report of both (friction.png, caging under modulation). Its own
+# target: Scenario C costs 1.2-1.3x the manipulation sweep (docs/performance.md).
+friction: $(STAMP)
+	$(VENV)/bin/sweep run configs/paper-friction.yaml --out results/paper-friction.h5
+	$(VENV)/bin/sweep run configs/paper-collision-friction.yaml \
+		--out results/paper-collision-friction.h5
+	$(VENV)/bin/sweep report results/paper-friction.h5 results/paper-collision-friction.h5 \
+		--out results/friction/
 
 # One energy map of the issue's reference design, with its plot.
 map: $(STAMP)

@@ -75,7 +75,7 @@ def census(design, part, h, accuracy=Accuracy()):
     es, ei = f["end_state"].ravel(), f["end_index"].ravel()
     stable = (f["point_class"] == REACHED) & f["equilibrium"]
     finger, solver, blocks = kernel_records(design, part, Limits(), accuracy, Effects())
-    hand = Hand(design.w, 1.0, 1.0, h)
+    hand = Hand(design.w, 1.0, 1.0, h, finger.mu_s, finger.mu_s)
     rows = []
     for q in np.unique(ei[es == END_STALLED]):
         starts = np.flatnonzero((es == END_STALLED) & (ei == q))

@@ -141,17 +141,21 @@ def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, 
 
 
 def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
-               manipulation: bool = False) -> int:
+               manipulation: bool = False, scenario_c: bool = False) -> int:
     """Bytes one thread holds while it computes one cell (kernels/field.py summarize_cell): the
     shared finger field, one width's map at a time (both fingers gathered, the outcomes, the
     trajectory stack) and, with the manipulation metric, the shared field's link vectors and
     statics (7 floats a point), Scenario A's per-pose force buffers (a count and two floats per
-    width and command) and the cell's Scenario B entries."""
+    width and command) and the cell's Scenario B entries; with Scenario C, a second shared field
+    (the low friction) with its links and statics, and C's buffers (four friction pairs)."""
     total = n_shared * ny * FINGER_BYTES + ny * nx_max * BYTES_PER_POINT
     if manipulation:
         slots = n_widths * len(SCENARIO_A_EXTREMES)
         total += (n_shared * ny * 7 * 8 + ny * nx_max * (8 + 2 * 8 * slots)
                   + ENTRY_CAPACITY * (4 * 8 + 1))
+        if scenario_c:
+            # C's buffers (4 slots a width and command) and the (mu_low, mu_low) pair's (1)
+            total += n_shared * ny * (FINGER_BYTES + 7 * 8) + ny * nx_max * (16 + 16 * 5 * slots)
     return total
 
 

@@ -190,6 +190,11 @@ TRAJECTORY_ALIASES = {"discrete": "grid8"}
 STREAMLINE_STEP = 0.5
 
 
+#: Scenario C's low friction when a config does not give it (MODEL 10: a near-frictionless
+#: surface, as in variable-friction fingers).
+DEFAULT_MU_LOW = 0.0
+
+
 class ModelInputError(ValueError):
     """Bad user input, caught once at the edge (CLI exit code 2)."""
 
@@ -261,6 +266,22 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
             if spec.validate is not None and getattr(effects, spec.name):
                 spec.validate(design, command, limits, effects)
 
+
+
+def validate_finger_friction(effects: Effects, mu_left: float | None,
+                             mu_right: float | None) -> None:
+    """Each finger's own contact friction (MODEL 10, Scenario C; None: the part's mu): a
+    number >= 0, and none above 0 without the friction effect (which makes every contact
+    frictionless). One-line ModelInputError."""
+    for name, value in (("mu_left", mu_left), ("mu_right", mu_right)):
+        if value is None:
+            continue
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value) and value >= 0):
+            raise ModelInputError(f"{name} must be >= 0, got {value!r}")
+        if value > 0 and not effects.friction:
+            raise ModelInputError(f"{name} = {value!r} needs the friction effect (without it "
+                                  "every contact is frictionless)")
 
 
 def validate_springs(design: Design, command: Command, limits: Limits, effects: Effects) -> None:

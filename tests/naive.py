@@ -450,14 +450,19 @@ def contact_normals(res, finger):
 
 
 def in_equilibrium(normals, mu):
-    """M7: origin in the convex hull of the friction-cone edges <=> no angular gap > pi + 1e-9."""
+    """M7: origin in the convex hull of the friction-cone edges <=> no angular gap > pi + 1e-9.
+
+    `mu`: one friction coefficient for every contact, or one per normal (MODEL 10, Scenario C:
+    each contact its own cone)."""
     if len(normals) < 2:
         return False
+    mus = list(mu) if isinstance(mu, (list, tuple)) else [mu] * len(normals)
+    assert len(mus) == len(normals)
     angles = []
-    for nx, ny in normals:
+    for (nx, ny), mu_i in zip(normals, mus):
         tx, ty = -ny, nx                       # t = rot90(n)
         for s in (1.0, -1.0):
-            angles.append(math.atan2(ny + s * mu * ty, nx + s * mu * tx))
+            angles.append(math.atan2(ny + s * mu_i * ty, nx + s * mu_i * tx))
     angles.sort()
     gaps = [b - a for a, b in zip(angles, angles[1:])]
     gaps.append(2.0 * PI - (angles[-1] - angles[0]))
@@ -560,11 +565,13 @@ def class_of_modes(modes):
 def hand_state(dx_left, dx_right, py, r, solve, f_left, f_right, r1, r2, theta2_min):
     """Both fingers at one part centre given by its finger-frame offsets (M4-M6, M8).
 
-    `solve(dx, dy)` is naive_finger with the design bound. Returns (class, energy, fingers);
+    `solve(dx, dy)` is naive_finger with the design bound, or a pair (left, right) of them when
+    the fingers' frictions differ (MODEL 10, Scenario C). Returns (class, energy, fingers);
     an infeasible position is (INFEASIBLE, None, None): it has no energy."""
     if not position_feasible(dx_left, dx_right, py, r):
         return INFEASIBLE, None, None
-    fingers = (solve(dx_left, py), solve(dx_right, py))
+    solve_left, solve_right = solve if isinstance(solve, tuple) else (solve, solve)
+    fingers = (solve_left(dx_left, py), solve_right(dx_right, py))
     energy = (finger_energy(fingers[0], f_left, r1, r2, theta2_min)
               + finger_energy(fingers[1], f_right, r1, r2, theta2_min))
     return class_of_modes([f["mode"] for f in fingers]), energy, fingers
@@ -588,15 +595,17 @@ def world_offsets(px, w):
 
 def naive_point(px, py, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0,
                 theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
-                reconfig_step=0.01, root_tol=1e-12, solve=None):
+                reconfig_step=0.01, root_tol=1e-12, solve=None, mu_left=None, mu_right=None):
     """The model at any part centre (x, y), on or off the grid (D16 step 2): both fingers by
     naive_finger, the class by M8 (INFEASIBLE as naive_map decides it), the energy by M6.
+    mu_left, mu_right: each finger's own friction (None: mu).
 
     Returns a dict: point_class, energy (None where infeasible), fingers (None where infeasible).
     Off the grid the offsets are x -+ w/2 (on the grid naive_map uses D1's exact offsets)."""
     if solve is None:
-        solve = finger_solver(l1, l2, r1, r2, r, mu, theta2_min, theta2_max, reconfig_step,
-                              root_tol)
+        solve = tuple(finger_solver(l1, l2, r1, r2, r, mu if m is None else m, theta2_min,
+                                    theta2_max, reconfig_step, root_tol)
+                      for m in (mu_left, mu_right))
     dx_left, dx_right = world_offsets(px, w)
     cls, energy, fingers = hand_state(dx_left, dx_right, py, r, solve, f_left, f_right, r1, r2,
                                       theta2_min)
@@ -658,7 +667,8 @@ class ReferenceGrid:
 
     def __init__(self, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None,
                  ylim=None, theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
-                 reconfig_step=0.01, root_tol=1e-12, trajectory="sliding"):
+                 reconfig_step=0.01, root_tol=1e-12, trajectory="sliding", mu_left=None,
+                 mu_right=None):
         if trajectory not in TRAJECTORY_METHODS:
             raise ValueError(f"trajectory must be one of {TRAJECTORY_METHODS}, "
                              f"not {trajectory!r}")
@@ -687,8 +697,12 @@ class ReferenceGrid:
         self.s = round(half)
         self.integer_offsets = abs(half - self.s) <= GRID_TOL
 
-        self.solve = finger_solver(l1, l2, r1, r2, r, mu, theta2_min, theta2_max, reconfig_step,
-                                   root_tol)
+        # each finger with its own friction (MODEL 10, Scenario C); the palm keeps mu
+        self.mu_left = mu if mu_left is None else mu_left
+        self.mu_right = mu if mu_right is None else mu_right
+        self.solve = tuple(finger_solver(l1, l2, r1, r2, r, m, theta2_min, theta2_max,
+                                         reconfig_step, root_tol)
+                           for m in (self.mu_left, self.mu_right))
         self.points = {}          # (j, i) -> the model at that grid point (see point())
         self.slides = {}          # (j, i) -> "rejoined" | "ejection" | "stalled"
         self.slide_ends = {}      # (j, i) -> (x, y, energy) where that slide left off
@@ -728,10 +742,13 @@ class ReferenceGrid:
         rec["contained"] = contained([jl, bl, tl, tr, br, jr], px, py)
         rec["l_open"], rec["crossed"] = opening(pts[0], pts[1])
         if cls == REACHED:
-            normals = contact_normals(fingers[0], 0) + contact_normals(fingers[1], 1)
+            left, right = contact_normals(fingers[0], 0), contact_normals(fingers[1], 1)
+            normals = left + right
+            mus = [self.mu_left] * len(left) + [self.mu_right] * len(right)
             if abs(py - r) <= PALM_TOL and abs(px) <= w / 2.0 + PALM_TOL:
                 normals.append((0.0, 1.0))
-            rec["equilibrium"] = in_equilibrium(normals, self.mu)
+                mus.append(self.mu)
+            rec["equilibrium"] = in_equilibrium(normals, mus)
         rec["stable"] = cls == REACHED and rec["equilibrium"]
         rec["caged"] = (rec["stable"] and rec["contained"]
                         and rec["l_open"] < 2.0 * r - RANGE_TOL)
@@ -924,7 +941,8 @@ class ReferenceGrid:
 
 def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None, ylim=None,
               theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
-              reconfig_step=0.01, root_tol=1e-12, trajectory="sliding"):
+              reconfig_step=0.01, root_tol=1e-12, trajectory="sliding", mu_left=None,
+              mu_right=None):
     """One energy map, point by point (M8). Arrays on (y, x) and (finger, y, x).
 
     trajectory: "sliding" (D16, the kernels' default) or "grid8" (D7, the paper-like descent).
@@ -932,9 +950,10 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
     "slides" ({(j, i): "rejoined" | "ejection" | "stalled"}, one entry per grid stall that slid;
     empty for grid8) and "slide_ends" ({(j, i): (x, y, energy)}: where each slide left off, for a
     stalled one where the part stopped) and "cascade_moves" (moves of all slides given by each
-    search of D16's cascade, in the order of SLIDE_CASCADE)."""
+    search of D16's cascade, in the order of SLIDE_CASCADE). mu_left, mu_right: each finger's
+    own contact friction (MODEL 10, Scenario C; None: mu); the palm keeps mu."""
     grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
-                         theta2_max, reconfig_step, root_tol, trajectory)
+                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right)
     x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
 
     nan = float("nan")
@@ -1006,7 +1025,7 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
 def naive_trajectory(start, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05,
                      xlim=None, ylim=None, theta2_min=math.radians(-5.0),
                      theta2_max=math.radians(90.0), reconfig_step=0.01, root_tol=1e-12,
-                     trajectory="sliding"):
+                     trajectory="sliding", mu_left=None, mu_right=None):
     """The trajectory of one start of naive_map's grid (same arguments; start = (x, y), a grid
     point), computing only the grid points it visits or looks at.
 
@@ -1015,7 +1034,7 @@ def naive_trajectory(start, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h
     None off P_j), slides, slide_ends and cascade_moves (as naive_map's, for the slides on the
     way)."""
     grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
-                         theta2_max, reconfig_step, root_tol, trajectory)
+                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right)
     ii = int(np.argmin(np.abs(grid.x - start[0])))
     jj = int(np.argmin(np.abs(grid.y - start[1])))
     if abs(grid.x[ii] - start[0]) > GRID_TOL * h or abs(grid.y[jj] - start[1]) > GRID_TOL * h:

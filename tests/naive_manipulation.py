@@ -193,13 +193,17 @@ def finger_offsets(i, h, w):
 
 
 @lru_cache(maxsize=None)   # configurations do not depend on the command: reuse across scenarios
-def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA2_MAX):
+def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA2_MAX,
+                mu_left=None, mu_right=None):
     """Per-unit-tension resultants of both fingers at lattice pose (i, j), already times S_geo.
+    mu_left, mu_right: each finger's own contact friction (Scenario C; None: the part's mu),
+    which solves that finger and is its contacts' cone in the part's equilibrium.
 
     Returns dict(counts, reason, f_left, f_right (world frame), s_geo, crossed, unique); the
     result is cached and shared: do not modify it."""
     w, l1, l2, r1, r2 = geometry
     r, mu = part
+    mus = (mu if mu_left is None else mu_left, mu if mu_right is None else mu_right)
     px, py = i * h, r + j * h
     out = {"counts": False, "reason": "", "f_left": np.zeros(2), "f_right": np.zeros(2),
            "s_geo": 0.0, "crossed": False, "unique": True}
@@ -208,8 +212,8 @@ def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA
             and finger_feasible(dx_right, py, r)):
         out["reason"] = "infeasible"
         return out
-    fingers = [naive_finger(dx, py, l1, l2, r1, r2, r, mu, theta2_min, theta2_max)
-               for dx in (dx_left, dx_right)]
+    fingers = [naive_finger(dx, py, l1, l2, r1, r2, r, m, theta2_min, theta2_max)
+               for dx, m in zip((dx_left, dx_right), mus)]
     modes = [f["mode"] for f in fingers]
     if SLIPPED in modes or VERTEX in modes or modes == [FREE, FREE]:
         out["reason"] = "not reached"
@@ -217,8 +221,8 @@ def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA
     if abs(py - r) <= PALM_TOL and abs(px) <= w / 2.0 + PALM_TOL:
         out["reason"] = "palm contact"
         return out
-    normals = contact_normals(fingers[0], 0) + contact_normals(fingers[1], 1)
-    if in_equilibrium(normals, mu):
+    left, right = contact_normals(fingers[0], 0), contact_normals(fingers[1], 1)
+    if in_equilibrium(left + right, [mus[0]] * len(left) + [mus[1]] * len(right)):
         out["reason"] = "equilibrium"
         return out
     pts = [[to_world(p, fi, w) for p in finger_points(res["t1"], res["t2"], l1, l2)]
@@ -232,7 +236,8 @@ def pose_forces(geometry, part, i, j, h, theta2_min=THETA2_MIN, theta2_max=THETA
     if not s_geo > 0.0:
         out["reason"] = "not caged"
         return out
-    statics = [finger_forces(res, l1, r1, r2, mu, theta2_min, theta2_max) for res in fingers]
+    statics = [finger_forces(res, l1, r1, r2, m, theta2_min, theta2_max)
+               for res, m in zip(fingers, mus)]
     if not all(s["determined"] for s in statics):
         out["reason"] = "undetermined"
         return out
@@ -273,12 +278,20 @@ def hull_value(points):
     return float(value), points[hull.vertices]
 
 
+def scenario_c_frictions(mu_low, mu_s):
+    """MODEL 10, Scenario C: each finger on mu_low or the part's mu_s, the four pairs
+    (mu_left, mu_right) (one when mu_low == mu_s)."""
+    return sorted({(a, b) for a in (mu_low, mu_s) for b in (mu_low, mu_s)})
+
+
 def naive_metric(geometries, part, h, commands, poses=None, search_ranges=PAPER_SEARCH_RANGES,
-                 theta2_min=THETA2_MIN, theta2_max=THETA2_MAX):
+                 theta2_min=THETA2_MIN, theta2_max=THETA2_MAX, frictions=((None, None),)):
     """The in-hand manipulation metric of one part (MODEL 10), pose by pose.
 
     geometries: sequence of (w, l1, l2, r1, r2); part: (r, mu_s); commands: (F_left, F_right)
-    pairs; poses: lattice indices (i, j), default every pose of the world lattice.
+    pairs; poses: lattice indices (i, j), default every pose of the world lattice; frictions:
+    the fingers' friction pairs (mu_left, mu_right) whose forces count too (Scenario C:
+    `scenario_c_frictions`; default the part's own).
     Returns dict:
       values   per-pose values; shape (M+1, 2N+1) indexed [j, i + N] for the default lattice,
                else one per given pose
@@ -309,18 +322,20 @@ def naive_metric(geometries, part, h, commands, poses=None, search_ranges=PAPER_
     for k, (i, j) in enumerate(poses):
         forces, owners, crossed = [], [], False
         for g, geometry in enumerate(geometries):
-            pf = pose_forces(geometry, part, i, j, h, theta2_min, theta2_max)
-            reasons[g][k] = pf["reason"]
-            if pf["reason"] == "no admissible statics":
-                inadmissible.append((i, j, g))
-            if not pf["counts"]:
-                continue
-            crossed |= pf["crossed"]
-            if not pf["unique"]:
-                nonunique.append((i, j, g))
-            for f_left, f_right in commands:
-                forces.append(f_left * pf["f_left"] + f_right * pf["f_right"])
-                owners.append(g)
+            for mu_left, mu_right in frictions:
+                pf = pose_forces(geometry, part, i, j, h, theta2_min, theta2_max, mu_left,
+                                 mu_right)
+                reasons[g][k] = pf["reason"]
+                if pf["reason"] == "no admissible statics":
+                    inadmissible.append((i, j, g))
+                if not pf["counts"]:
+                    continue
+                crossed |= pf["crossed"]
+                if not pf["unique"]:
+                    nonunique.append((i, j, g))
+                for f_left, f_right in commands:
+                    forces.append(f_left * pf["f_left"] + f_right * pf["f_right"])
+                    owners.append(g)
         n_forces[k] = len(forces)
         counted.append((np.array(owners, dtype=int), np.array(forces, dtype=float).reshape(-1, 2)))
         value, verts = hull_value(forces)

@@ -330,7 +330,8 @@ def test_sweep_way_gives_the_reference_search_summaries():
             n_changed = resolve_collisions_reference(ys, finger, w, fingers, COLLISION)
             outs = new_outcome_arrays(ny, xs.size)
             summary = np.empty(N_SUMMARY)
-            map_from_fingers(xs, ys, finger, solver, Hand(w, 1.0, 1.0, h), NO_EFFECTS, fingers,
+            map_from_fingers(xs, ys, finger, solver,
+                             Hand(w, 1.0, 1.0, h, finger.mu_s, finger.mu_s), NO_EFFECTS, fingers,
                              outs, no_force_arrays(), np.empty(xs.size * ny, dtype=np.int64),
                              summary, False, True, True, no_settled_fingers())
             summary[S_COLLISION_CHANGED] = n_changed
@@ -604,7 +605,7 @@ def test_grid_points_with_a_tip_path_finger_are_the_one_position_answer(case):
     design, part, tip, both = tip_scene_maps(*case)
     effects = Effects(friction=mu > 0, tip_contact=True, finger_collision=True)
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), effects)
-    hand = Hand(w, 1.0, 1.0, 0.1)
+    hand = Hand(w, 1.0, 1.0, 0.1, finger.mu_s, finger.mu_s)
     mode = np.asarray(tip.fields["finger_mode"])
     pc, energy = np.asarray(both.fields["point_class"]), np.asarray(both.fields["energy"])
     xs, ys = np.asarray(both.x), np.asarray(both.y)

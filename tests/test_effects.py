@@ -173,7 +173,8 @@ def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
             finger_rows(0, g.y.size, dxs, g.y, finger, solver, blocks, fingers, side)
         outs = new_outcome_arrays(*g.shape)
         summary = np.empty(len(SUMMARY_INDEX))
-        map_from_fingers(g.x, g.y, finger, solver, Hand(DESIGN.w, 1.0, 1.0, g.h), blocks,
+        map_from_fingers(g.x, g.y, finger, solver,
+                         Hand(DESIGN.w, 1.0, 1.0, g.h, finger.mu_s, finger.mu_s), blocks,
                          fingers, outs, no_force_arrays(),
                          np.empty(g.x.size * g.y.size, dtype=np.int64), summary, True, True,
                          caging, no_settled_fingers())

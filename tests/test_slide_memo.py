@@ -75,7 +75,8 @@ def map_and_reference(design, part, commands, h, effects):
     m = compute_map(design, part, Command(*commands), Grid(h=h), Limits(), Accuracy(),
                     effects=effects)
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), effects)
-    hand = Hand(float(design.w), float(commands[0]), float(commands[1]), float(h))
+    hand = Hand(float(design.w), float(commands[0]), float(commands[1]), float(h), finger.mu_s,
+                finger.mu_s)
     return m, KernelGridReference(m, finger, solver, blocks, hand)
 
 
@@ -133,7 +134,7 @@ def test_the_model_is_mirror_symmetric_bit_for_bit(design, scene, x, dy, tension
     l1, l2, r1, r2, w, r, mu = design
     finger, solver, blocks = kernel_records(Design(l1, l2, r1, r2, w), Part(r, mu), Limits(),
                                             Accuracy(), SCENES[scene])
-    hand = Hand(w, tension, tension, 0.05)
+    hand = Hand(w, tension, tension, 0.05, finger.mu_s, finger.mu_s)
     y = r + dy
     for px in (x, -x, 0.5 * w, -0.5 * w) if x else (0.0, -0.0):
         c, e = point_outcome(px, y, finger, solver, blocks, hand)
@@ -152,7 +153,7 @@ def test_outcome_below_a_bound_is_exact_or_a_lower_bound_above_it(design, scene,
     l1, l2, r1, r2, w, r, mu = design
     finger, solver, blocks = kernel_records(Design(l1, l2, r1, r2, w), Part(r, mu), Limits(),
                                             Accuracy(), SCENES[scene])
-    hand = Hand(w, 1.0, 1.0, 0.05)
+    hand = Hand(w, 1.0, 1.0, 0.05, finger.mu_s, finger.mu_s)
     context = slide_context(finger, w, blocks.finger_collision) if near else ALONE
     y = r + dy
     c, e = point_outcome(x, y, finger, solver, blocks, hand)
@@ -193,7 +194,7 @@ def test_memo_reads_what_it_stored_and_keeps_it_when_it_grows():
     bound is below it; growing keeps every entry."""
     finger, solver, blocks = kernel_records(Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4),
                                             Limits(), Accuracy(), Effects(finger_collision=True))
-    hand = Hand(0.8, 1.0, 1.0, 0.05)
+    hand = Hand(0.8, 1.0, 1.0, 0.05, finger.mu_s, finger.mu_s)
     for mirror in (True, False):
         memo = memo_for_slide(new_memo(1, mirror))
         assert memo.keys.shape[0] == MEMO_MIN_CAPACITY and memo.fill[0] == 0

@@ -419,7 +419,7 @@ def test_circle_ties_go_to_the_first_direction_from_east():
 
     design, part, h = Design(2.0, 1.6, 0.16, 0.06, 1.2), Part(0.4, 0.1), 0.05
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
-    hand = Hand(design.w, 1.0, 1.0, h)
+    hand = Hand(design.w, 1.0, 1.0, h, finger.mu_s, finger.mu_s)
     e, _, ux, uy = lowest_on_circle(0.0, 2.0, h, False, np.empty(SLIDE_DIRECTIONS), finger,
                                     solver, blocks, hand, new_memo(0, False), no_slide_context())
     east = point_outcome(h, 2.0, finger, solver, blocks, hand)[1]

@@ -56,8 +56,9 @@ def grid8_ends(outs, h):
                                             Limits(), Accuracy(trajectory="grid8"), Effects())
     ny, nx = outs.energy.shape
     xs, ys = np.arange(nx) * h, 0.4 + np.arange(ny) * h
-    return trajectory_ends(outs, xs, ys, finger, solver, blocks, Hand(0.0, 1.0, 1.0, h),
-                           stack_for(outs), False)
+    return trajectory_ends(outs, xs, ys, finger, solver, blocks,
+                           Hand(0.0, 1.0, 1.0, h, finger.mu_s, finger.mu_s), stack_for(outs),
+                           False)
 
 
 # --- discrete method: ties go to the first of E, NE, N, NW, W, SW, S, SE (MODEL 8) -------------

@@ -33,7 +33,14 @@ def effect_parameter_options(command):
 @click.option("--r2", type=float, required=True, help="Distal pulley radius (R = r2/r1).")
 @click.option("--w", "w", type=float, required=True, help="Palm width (finger bases at +-w/2).")
 @click.option("--r", "r", type=float, required=True, help="Part (disc) radius.")
-@click.option("--mu", type=float, required=True, help="Static friction coefficient part-links.")
+@click.option("--mu", type=float, required=True,
+              help="Static friction coefficient of the part: against the palm, and against each "
+                   "finger unless --mu-left/--mu-right say otherwise.")
+@click.option("--mu-left", type=float, default=None,
+              help="Friction coefficient of the left finger's contacts [default: --mu] (a "
+                   "switched finger surface, MODEL 10 Scenario C; the palm keeps --mu).")
+@click.option("--mu-right", type=float, default=None,
+              help="Friction coefficient of the right finger's contacts [default: --mu].")
 @click.option("--h", "h", type=float, default=0.05, show_default=True, help="Grid spacing.")
 @click.option("--xlim", type=(float, float), default=None, metavar="XMIN XMAX",
               help="Window in x (default: the whole reach, mirror-symmetric).")
@@ -76,22 +83,28 @@ def effect_parameter_options(command):
 @click.option("--overwrite", is_flag=True, help="Replace existing --out / --plot files.")
 @click.option("--wait", is_flag=True,
               help="If another process is writing the same --out, wait for it.")
-def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2_min,
-                theta2_max, reconfig_step, root_tol, trajectory, threads, out, plot_path, forces,
-                outputs_spec, effects_spec, overwrite, wait, **effect_params):
+def map_command(l1, l2, r1, r2, w, r, mu, mu_left, mu_right, h, xlim, ylim, f_left, f_right,
+                theta2_min, theta2_max, reconfig_step, root_tol, trajectory, threads, out,
+                plot_path, forces, outputs_spec, effects_spec, overwrite, wait, **effect_params):
     """Compute one energy map and write it to --out (and optionally a picture to --plot).
 
     Per grid point of part centres: finger configurations and modes, energy, class, part
     equilibrium, containment, L_open, trajectory end state and caging score. Example:
 
         sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 --out map.h5
+
+    With --mu-left/--mu-right each finger touches the part with its own friction (a finger
+    switched to a low-friction surface, as in Scenario C of the manipulation metric):
+
+        sweep map ... --mu 0.4 --mu-left 0 --out switched.h5
     """
     from ..compute.layout import map_grid
     from ..compute.maps import compute_map
     from ..compute.warm import ensure_compiled
     from ..grid import map_bytes_per_point
     from ..model import (
-        Command, Design, Grid, Limits, ModelInputError, Part, validate_inputs, validate_scene,
+        Command, Design, Grid, Limits, ModelInputError, Part, validate_finger_friction,
+        validate_inputs, validate_scene,
     )
     from ..outputs import check_output_file, claim_output
     from ..runs.runner import RunError, numba_threads, resolve_threads
@@ -106,6 +119,10 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
         outputs = _outputs_from_flags(outputs_spec, forces)
         effects = _effects_from_flags(effects_spec, effect_params, mu)
         validate_inputs(design, part, command, limits, accuracy, effects)
+        try:
+            validate_finger_friction(effects, mu_left, mu_right)
+        except ModelInputError as err:
+            raise ModelInputError(f"--{str(err).replace('_', '-', 1)}") from None
         try:
             validate_scene(effects, outputs)
         except ModelInputError as err:
@@ -137,7 +154,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, h, xlim, ylim, f_left, f_right, theta2
             # reported for the map is the computation alone
             ensure_compiled()
             m = compute_map(design, part, command, grid, limits, accuracy, effects,
-                            outputs=outputs)
+                            outputs=outputs, mu_left=mu_left, mu_right=mu_right)
         write_map(out, m)
         click.echo(describe(m))
         if m.attrs["n_infeasible"] + m.attrs["n_unreached"] == m.attrs["n_points"]:

@@ -15,13 +15,14 @@ from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREME
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
 from ..config.scene import Scene, grid_points
 from ..kernels import field
-from ..kernels.records import (Hand, ManipulationOut, RIGHT, LEFT, new_force_arrays,
+from ..kernels.records import (ManipulationOut, RIGHT, LEFT, new_force_arrays,
                                new_outcome_arrays, new_finger_arrays, no_force_arrays,
-                               no_manipulation, no_settled_fingers)
+                               no_manipulation, no_scenario_c, no_settled_fingers)
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .manipulation import ManipulationChunk, PartReduction
-from .layout import finger_offsets, kernel_records, map_fields, map_grid, summary_attrs
+from .layout import (finger_offsets, hand_record, kernel_records, map_fields, map_grid,
+                     summary_attrs)
 from .threads import over_ranges
 
 
@@ -86,7 +87,7 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
             finger, _, _ = kernel_records(design, part, limits, accuracy, effects)
             g = map_grid(design, part, Grid(h=h))
             dx_left, dx_right = finger_offsets(g.i, w, h)
-            hand = Hand(float(w), command.f_left, command.f_right, float(h))
+            hand = hand_record(w, command, h, finger)
             ny, nx = g.shape
             fingers = new_finger_arrays(2, ny, nx)
             field.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
@@ -140,7 +141,7 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     force_arrays = new_force_arrays(ny, xs.shape[0]) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
     field.map_from_fingers(xs, ys, finger, solver,
-                           Hand(float(w), float(command.f_left), float(command.f_right), float(h)),
+                           hand_record(w, command, h, finger),
                            blocks, fingers, outs, force_arrays,
                            np.empty(ny * xs.shape[0], dtype=np.int64), summary, field.EVERY_POINT,
                            field.ALL_OUTPUTS, field.ALL_OUTPUTS, no_settled_fingers())
@@ -166,13 +167,16 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
                        accuracy: Accuracy, effects: Effects, items: np.ndarray,
                        part_keys: np.ndarray, lattice_ncol: np.ndarray,
                        capacity: int = ENTRY_CAPACITY, command: Command = Command(),
-                       pose_values: bool = False) -> tuple[np.ndarray, ManipulationChunk]:
+                       pose_values: bool = False, mu_low: float | None = None
+                       ) -> tuple[np.ndarray, ManipulationChunk]:
     """Summaries (as `summarize_cells` under `command`) and the manipulation data of cells
     whose items are `items` (consecutive work-item indices): Scenario A's metric per cell and
     Scenario B's reductions per part (`part_keys[c]` = (r index, mu index) of cell c, whose
     lattice has columns -lattice_ncol[c] .. lattice_ncol[c]). Geometry index of a map: its item
-    index x n_w + its width index. With `pose_values`, the chunk also carries Scenario A's value
-    of every pose (`chunk.a_pose_value[c]`, on the grid of the cell's widest map)."""
+    index x n_w + its width index. With `mu_low` (Scenario C's low friction, MODEL 10), also
+    Scenario C's metric per cell (`chunk.c_metric`). With `pose_values`, the chunk also carries
+    the value of every pose of Scenario A (`chunk.a_pose_value[c]`, on the grid of the cell's
+    widest map) and of C (`chunk.c_pose_value`)."""
     cells = np.ascontiguousarray(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
     widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
     items = np.asarray(items, dtype=np.int64)
@@ -191,18 +195,23 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
     nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
     lattice_ncol = np.ascontiguousarray(lattice_ncol, dtype=np.int64)
+    if mu_low is not None and not effects.friction:
+        mu_low = 0.0   # every contact frictionless, as the cells' mu
 
     def run(rows, capacity):
         out = np.zeros((rows.size, widths.size, len(SUMMARY_FIELDS)))
         m = rows.size
         shape = ((m, int(nys[rows].max()), 2 * int(ncols[rows].max()) + 1) if pose_values
                  else (0, 0, 0))
+        scenario_c = no_scenario_c() if mu_low is None else (
+            np.array([mu_low], dtype=np.float64), np.zeros(m),
+            np.zeros(shape))
         manip = ManipulationOut(
             np.zeros((m, capacity), dtype=np.int64), np.zeros((m, capacity)),
             np.zeros((m, capacity)), np.zeros((m, capacity), dtype=np.int64),
             np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
             lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64),
-            np.zeros(shape))
+            np.zeros(shape), *scenario_c)
         _summarize_shared(np.ascontiguousarray(cells[rows]), widths,
                           np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h, command,
                           limits, solver, blocks, out,
@@ -214,10 +223,15 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     if over.size:  # redo only the cells with more counted poses than the buffer holds
         out2, manip2 = run(over, int(manip.n_entries.max()))
         out[over] = out2
-        manip = ManipulationOut(*[_splice(a, b, over) for a, b in zip(manip[:7], manip2[:7])],
-                                manip.lattice_ncol, manip.a_commands,
-                                _splice(manip.a_pose_value, manip2.a_pose_value, over)
-                                if pose_values else manip.a_pose_value)
+        manip = ManipulationOut(
+            *[_splice(a, b, over) for a, b in zip(manip[:7], manip2[:7])],
+            manip.lattice_ncol, manip.a_commands,
+            _splice(manip.a_pose_value, manip2.a_pose_value, over) if pose_values
+            else manip.a_pose_value, manip.c_mu_low,
+            _splice(manip.c_metric, manip2.c_metric, over) if mu_low is not None
+            else manip.c_metric,
+            _splice(manip.c_pose_value, manip2.c_pose_value, over)
+            if pose_values and mu_low is not None else manip.c_pose_value)
     parts: dict = {}
     keys = [tuple(int(v) for v in k) for k in np.asarray(part_keys).reshape(-1, 2)]
     for key in sorted(set(keys)):
@@ -244,9 +258,12 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
         }
         assert tuple(parts[key]) == REDUCTIONS
     start = int(items[0]) if n else 0
-    chunk = ManipulationChunk(start, start + n, manip.a_metric.copy(), parts)
+    chunk = ManipulationChunk(start, start + n, manip.a_metric.copy(), parts,
+                              c_metric=None if mu_low is None else manip.c_metric.copy())
     if pose_values:
         chunk.a_pose_value = manip.a_pose_value
+        if mu_low is not None:
+            chunk.c_pose_value = manip.c_pose_value
     return out, chunk
 
 
@@ -254,16 +271,30 @@ def scenario_a_pose_values(candidate, part, widths, h: float, limits: Limits = L
                            accuracy: Accuracy = Accuracy(), effects: Effects = Effects()):
     """Scenario A per pose for one candidate (l1, l2, r1, r2) and part (r, mu) over `widths`
     (MODEL 10): (x, y, values) on the grid of the widest map, and the metric (their sum)."""
+    return _candidate_pose_values(candidate, part, widths, h, limits, accuracy, effects, None)
+
+
+def scenario_c_pose_values(candidate, part, widths, h: float, mu_low: float,
+                           limits: Limits = Limits(), accuracy: Accuracy = Accuracy(),
+                           effects: Effects = Effects()):
+    """Scenario C per pose (MODEL 10: A's gripper whose fingers each switch between the part's
+    mu and `mu_low`), as `scenario_a_pose_values`."""
+    return _candidate_pose_values(candidate, part, widths, h, limits, accuracy, effects, mu_low)
+
+
+def _candidate_pose_values(candidate, part, widths, h, limits, accuracy, effects, mu_low):
     cell = np.array([[*candidate, *part]], dtype=np.float64)
     widths = np.asarray(widths, dtype=np.float64)
     n_col = part_lattice_columns(widths.max(), candidate[0], candidate[1], part[0], h)
     _, chunk = manipulation_cells(cell, widths, h, limits, accuracy, effects, np.array([0]),
-                                  np.array([[0, 0]]), np.array([n_col]), pose_values=True)
-    values = chunk.a_pose_value[0]
+                                  np.array([[0, 0]]), np.array([n_col]), pose_values=True,
+                                  mu_low=mu_low)
+    values, metric = ((chunk.a_pose_value[0], chunk.a_metric[0]) if mu_low is None
+                      else (chunk.c_pose_value[0], chunk.c_metric[0]))
     ny, nx = values.shape
     x = (np.arange(nx) - nx // 2) * h
     y = part[0] + np.arange(ny) * h
-    return x, y, values, float(chunk.a_metric[0])
+    return x, y, values, float(metric)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..kernels.records import (
-    EffectBlocks, FingerArrays, FingerModel, ForceArrays, OutcomeArrays, SolverSettings,
+    EffectBlocks, FingerArrays, FingerModel, ForceArrays, Hand, OutcomeArrays, SolverSettings,
     effect_blocks,
 )
 from ..grid import BYTES_PER_POINT, check_memory, grid_index_bounds, palm_half_width_steps
@@ -77,6 +77,10 @@ class EnergyMap:
     fields: dict = field(default_factory=dict)
     attrs: dict = field(default_factory=dict)
     outputs: tuple[str, ...] = DEFAULT_OUTPUTS
+    #: each finger's contact friction where it is not the part's mu (MODEL 10, Scenario C);
+    #: None: the part's, as in the paper (the palm always keeps it)
+    mu_left: float | None = None
+    mu_right: float | None = None
 
 
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
@@ -93,6 +97,21 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol),
                             TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP))
     return finger, solver, effect_blocks(effects, accuracy, tension)
+
+
+def hand_record(w: float, command: Command, h: float, finger: FingerModel,
+                mu_left: float | None = None, mu_right: float | None = None) -> Hand:
+    """The kernels' Hand of a map: palm width, tendon tensions, grid spacing and each finger's
+    contact friction (None: the part's, `finger.mu_s`, which is 0 without the friction
+    effect)."""
+    return Hand(float(w), float(command.f_left), float(command.f_right), float(h),
+                float(finger.mu_s if mu_left is None else mu_left),
+                float(finger.mu_s if mu_right is None else mu_right))
+
+
+def side_finger_model(finger: FingerModel, mu: float) -> FingerModel:
+    """`finger` with its contacts' friction `mu` (kernels' records.side_finger, in Python)."""
+    return finger._replace(mu_s=float(mu))
 
 
 # Per-point fields that exist only with an output (the rest come with the energy).

@@ -371,6 +371,8 @@ class ManipulationChunk:
     a_metric: np.ndarray                       # (stop - start,)
     parts: dict                                # (ri, mui) -> {"all": PartReduction, ...}
     a_pose_value: np.ndarray | None = None     # per-pose Scenario A values, when asked for
+    c_metric: np.ndarray | None = None         # (stop - start,) with Scenario C, else None
+    c_pose_value: np.ndarray | None = None     # per-pose Scenario C values, when asked for
 
     @classmethod
     def merge_all(cls, chunks) -> "ManipulationChunk":
@@ -386,7 +388,8 @@ class ManipulationChunk:
                                                       if key in ch.parts])
                        for name in REDUCTIONS} for key in keys}
         return cls(chunks[0].start, chunks[-1].stop,
-                   np.concatenate([ch.a_metric for ch in chunks]), parts)
+                   np.concatenate([ch.a_metric for ch in chunks]), parts,
+                   c_metric=joined_c_metrics([ch.c_metric for ch in chunks]))
 
     def merge(self, other: "ManipulationChunk") -> "ManipulationChunk":
         """Two chunks of adjacent items, in either order."""
@@ -399,24 +402,28 @@ class ManipulationChunk:
         with the sweep). The hulls, values and usage are those of merge_all (the hull of a union
         is the hull of the parts' hulls); a part in only one chunk is kept as it is."""
         start = stop = None
-        a_metric, parts = [], {}
+        a_metric, parts, c_metric = [], {}, []
         for ch in chunks:
             if stop is not None and ch.start != stop:
                 raise ValueError(f"chunk {ch.start}-{ch.stop} does not follow item {stop}")
             start = ch.start if start is None else start
             stop = ch.stop
             a_metric.append(ch.a_metric)
+            c_metric.append(ch.c_metric)
             for key, reds in ch.parts.items():
                 parts[key] = fold_part(parts.get(key), reds)
         if start is None:
             raise ValueError("no chunks to merge")
-        return cls(start, stop, np.concatenate(a_metric), dict(sorted(parts.items())))
+        return cls(start, stop, np.concatenate(a_metric), dict(sorted(parts.items())),
+                   c_metric=joined_c_metrics(c_metric))
 
     def write(self, group) -> None:
         """Into an h5py group (a block file's `manipulation` group)."""
         group.attrs["item_start"] = self.start
         group.attrs["item_stop"] = self.stop
         group.create_dataset("a_metric", data=self.a_metric)
+        if self.c_metric is not None:
+            group.create_dataset("c_metric", data=self.c_metric)
         for (ri, mui), reds in sorted(self.parts.items()):
             for name in REDUCTIONS:
                 g = group.create_group(f"part_{ri}_{mui}/{name}")
@@ -427,7 +434,17 @@ class ManipulationChunk:
     def read(cls, group) -> "ManipulationChunk":
         parts = {key: read_part(group, key) for key in part_keys(group)}
         return cls(int(group.attrs["item_start"]), int(group.attrs["item_stop"]),
-                   group["a_metric"][...], parts)
+                   group["a_metric"][...], parts,
+                   c_metric=group["c_metric"][...] if "c_metric" in group else None)
+
+
+def joined_c_metrics(metrics: list) -> np.ndarray | None:
+    """Scenario C's metrics of adjacent chunks side by side: None if they have none, an error if
+    only some have them (the chunks of one sweep all have C or none does)."""
+    have = {m is not None for m in metrics}
+    if len(have) > 1:
+        raise ValueError("chunks with and without Scenario C cannot be merged")
+    return np.concatenate(metrics) if have == {True} else None
 
 
 def fold_part(merged: dict | None, reds: dict) -> dict:

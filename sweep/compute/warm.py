@@ -66,7 +66,8 @@ def compile_maps() -> None:
     downhill_neighbour(energy, point_class, 0, 0, h)
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     slide_successor(energy, point_class, equilibrium, m.x, m.y, 0, 0, finger, solver, blocks,
-                    Hand(0.8, 1.0, 1.0, h), np.empty((max_slide_points(ny, nx), 2)),
+                    Hand(0.8, 1.0, 1.0, h, finger.mu_s, finger.mu_s),
+                    np.empty((max_slide_points(ny, nx), 2)),
                     new_memo(0, False), no_slide_context())
     steps = max_streamline_steps(ny, nx, 0.5)
     streamline_walk(energy, point_class, equilibrium, caged, 0, 0, 0.5, steps,

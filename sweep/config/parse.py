@@ -16,14 +16,15 @@ import yaml
 
 from ..grid import cell_bytes, cell_extent
 from ..outputs import StoreError
-from ..model import (EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE, ROOT_TOL_RANGE,
-                     TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
+from ..model import (DEFAULT_MU_LOW, EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE,
+                     ROOT_TOL_RANGE, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
                      ModelInputError, Outputs, Part, validate_inputs)
 from .scene import (ACCURACY_KEYS, COMMAND_KEYS, DESIGN_KEYS, EFFECT_KEYS, GRID_BOUNDS, GRID_KEYS,
                     LIMIT_KEYS, MAP_OUTPUT_KEYS, MAX_MAP_BYTES, MAX_REFINE_LEVELS,
                     MAX_VALUES_PER_PARAMETER, MIN_POINTS_PER_AXIS, OUTPUT_KEYS, PART_KEYS,
-                    RANGE_KEYS, REFINE_KEYS, RUN_KEYS, RefineSettings, SAVE_MAP_KEYS, STORE_DIMS,
-                    Scene, SceneError, TOO_MANY_POINTS, TOP_KEYS, grid_points, grid_shape, index_of)
+                    RANGE_KEYS, REFINE_KEYS, RUN_KEYS, RefineSettings, SAVE_MAP_KEYS,
+                    SCENARIO_C_KEYS, STORE_DIMS, Scene, SceneError, TOO_MANY_POINTS, TOP_KEYS,
+                    grid_points, grid_shape, index_of)
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -195,7 +196,9 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
                 raise SceneError(f"outputs.manipulation: every palm width must be a multiple of "
                                  f"2h = {2 * h:g} (poses are shared lattice points); w = {w:g}")
 
-    _check_memory(values, h, manipulation)
+    mu_low = _scenario_c(outputs.get("scenario_c", False), manipulation, effects)
+
+    _check_memory(values, h, manipulation, mu_low is not None)
 
     if effects.joint_springs:
         if any((c.f_left, c.f_right) != (1.0, 1.0) for c in commands):
@@ -218,7 +221,33 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     return Scene(name=name, values=values, commands=commands, h=h, bounds=bounds, limits=limits,
                  accuracy=accuracy, effects=effects, save_maps=save_maps, sub_chunk_cells=sub,
                  outputs=map_outputs, manipulation=manipulation, scenario_a_top_k=top_k,
-                 refine=refine, source=_jsonable(raw))
+                 scenario_c_mu_low=mu_low, refine=refine, source=_jsonable(raw))
+
+
+def _scenario_c(raw, manipulation: bool, effects) -> float | None:
+    """`outputs.scenario_c` (MODEL 10, friction modulation): false (off), true (on with the
+    default low friction) or `{mu_low: value}`; the low friction, None when off. One-line
+    SceneError naming the key."""
+    if raw is False or raw is None:
+        return None
+    if raw is True:
+        raw = {}
+    elif not isinstance(raw, dict):
+        raise SceneError(f"outputs.scenario_c: must be true, false or a mapping such as "
+                         f"{{mu_low: 0.0}}, got {raw!r}")
+    given = _mapping(raw, "outputs.scenario_c", SCENARIO_C_KEYS)
+    mu_low = given.get("mu_low", DEFAULT_MU_LOW)
+    if (isinstance(mu_low, bool) or not isinstance(mu_low, (int, float))
+            or not math.isfinite(mu_low) or mu_low < 0):
+        raise SceneError(f"outputs.scenario_c.mu_low: must be a number >= 0, got {mu_low!r}")
+    if not manipulation:
+        raise SceneError("outputs.scenario_c: is part of the manipulation metric; set "
+                         "outputs.manipulation: true")
+    if not effects.friction:
+        raise SceneError("outputs.scenario_c: switches the fingers' friction and needs the "
+                         "friction effect (effects.friction is false: every contact is "
+                         "frictionless)")
+    return float(mu_low)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -387,12 +416,12 @@ def _check_countable(values: dict, h: float) -> None:
                          f"smaller designs")
 
 
-def _check_memory(values: dict, h: float, manipulation: bool) -> None:
+def _check_memory(values: dict, h: float, manipulation: bool, scenario_c: bool = False) -> None:
     """One thread's largest cell (its maps, its shared finger field and, with the manipulation
     metric, its force buffers: grid.cell_bytes) within MAX_MAP_BYTES."""
     l1, l2, w, r = (max(values[k]) for k in ("l1", "l2", "w", "r"))
     ny, nx_max, n_shared = cell_extent(l1, l2, r, values["w"], h)
-    need = cell_bytes(ny, nx_max, n_shared, len(values["w"]), manipulation)
+    need = cell_bytes(ny, nx_max, n_shared, len(values["w"]), manipulation, scenario_c)
     if need > MAX_MAP_BYTES:
         points = grid_points(l1, l2, w, r, h)
         raise SceneError(

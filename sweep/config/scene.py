@@ -55,7 +55,8 @@ LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
 ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
 EFFECT_KEYS = EFFECT_NAMES
 MAP_OUTPUT_KEYS = OUTPUT_NAMES
-OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k")
+OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k", "scenario_c")
+SCENARIO_C_KEYS = ("mu_low",)
 SAVE_MAP_KEYS = STORE_DIMS + ("command",)
 RUN_KEYS = ("sub_chunk_cells",)
 REFINE_KEYS = ("levels", "bound", "min_contenders")
@@ -128,6 +129,8 @@ class Scene:
     outputs: Outputs = Outputs()  # outputs.energy/equilibrium/caging/forces (MODEL 9)
     manipulation: bool = False   # outputs.manipulation: Scenarios A and B of MODEL 10
     scenario_a_top_k: int = 10   # outputs.scenario_a_top_k: Scenario A's candidates per part
+    #: outputs.scenario_c.mu_low: Scenario C's low friction (MODEL 10); None when C is off
+    scenario_c_mu_low: float | None = None
     refine: RefineSettings | None = None  # refine: the refinement stage; None when off
     source: dict = field(default_factory=dict, compare=False)  # the config as written
     path: str | None = field(default=None, compare=False)      # the file it was read from
@@ -224,10 +227,17 @@ class Scene:
             **self._resolved_outputs(),
         )
 
+    @property
+    def scenario_c(self) -> bool:
+        """Scenario C (friction modulation) is computed with the manipulation metric."""
+        return self.scenario_c_mu_low is not None
+
     def _resolved_outputs(self) -> dict:
         out = {}
         if self.manipulation:
             out["manipulation"] = True
+        if self.scenario_c:  # (C's metrics are in the block files: a part of the identity)
+            out["scenario_c"] = {"mu_low": self.scenario_c_mu_low}
         if self.outputs != Outputs():
             out["on"] = self.outputs.names_on()
         return {"outputs": out} if out else {}
@@ -265,7 +275,8 @@ class Scene:
         l1, l2 and r, every width."""
         l1, l2, r = (max(self.values[k]) for k in ("l1", "l2", "r"))
         ny, nx_max, n_shared = cell_extent(l1, l2, r, self.values["w"], self.h)
-        return cell_bytes(ny, nx_max, n_shared, len(self.values["w"]), self.manipulation)
+        return cell_bytes(ny, nx_max, n_shared, len(self.values["w"]), self.manipulation,
+                          self.scenario_c)
 
     def held_bytes(self) -> int:
         """What a run holds besides its threads' cells, at most: the summaries of every item,

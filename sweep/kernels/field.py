@@ -77,6 +77,7 @@ from .hull import convex_hull, inscribed_radius
 from .hand import (
     finger_polyline,
     fingers_cross,
+    friction_cones,
     link_vectors,
     part_contained,
     part_in_equilibrium,
@@ -96,7 +97,9 @@ from .records import (
     LEFT,
     RIGHT,
     SettledFingers,
+    side_finger,
     wants_manipulation,
+    wants_scenario_c,
     with_forces,
     with_joint_springs,
 )
@@ -208,9 +211,11 @@ def collide_on_own_paths(x, y, finger, solver, effects, hand, collision, left, r
         return False, left, right
     dxl = -x - 0.5 * w
     dxr = x - 0.5 * w
-    on_l, t1sl, t2sl, k1sl = tip_path_start(dxl, y, left[0], left[1], left[2], finger, solver,
+    on_l, t1sl, t2sl, k1sl = tip_path_start(dxl, y, left[0], left[1], left[2],
+                                            side_finger(finger, hand, LEFT), solver,
                                             finger_effects(effects, hand.f_left))
-    on_r, t1sr, t2sr, k1sr = tip_path_start(dxr, y, right[0], right[1], right[2], finger, solver,
+    on_r, t1sr, t2sr, k1sr = tip_path_start(dxr, y, right[0], right[1], right[2],
+                                            side_finger(finger, hand, RIGHT), solver,
                                             finger_effects(effects, hand.f_right))
     path_l = (left[1], left[2], on_l, t1sl, t2sl, dxl, y)
     path_r = (right[1], right[2], on_r, t1sr, t2sr, dxr, y)
@@ -331,8 +336,10 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     no springs), and the meeting is not searched. `context`: hand.slide_context (the
     meeting found as on the grid) or hand.no_slide_context() (hand.collide)."""
     w = hand.w
-    sl = solve_finger(-x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_left))
-    sr = solve_finger(x - 0.5 * w, y, finger, solver, finger_effects(effects, hand.f_right))
+    sl = solve_finger(-x - 0.5 * w, y, side_finger(finger, hand, LEFT), solver,
+                      finger_effects(effects, hand.f_left))
+    sr = solve_finger(x - 0.5 * w, y, side_finger(finger, hand, RIGHT), solver,
+                      finger_effects(effects, hand.f_right))
     collision = effects.finger_collision
     if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
@@ -784,6 +791,9 @@ SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edg
 # caging outputs on, the only finger of a shared field, a part taken as contained.
 EVERY_POINT, STABLE_POINTS = np.bool_(True), np.bool_(False)
 ALL_OUTPUTS = np.bool_(True)
+MIRRORED = np.bool_(True)
+WHOLE_ROWS = np.bool_(False)
+HALF_ROWS = np.bool_(True)
 SHARED = np.int64(0)
 CONTAINED = np.bool_(True)
 NO_CLASS = np.int64(INFEASIBLE)
@@ -836,13 +846,14 @@ def fill_infeasible(j, i, fingers, outs, forces, forces_on):
 
 
 @inner
-def point_forces(j, i, finger, fingers, forces):
-    """Contact forces of both fingers at a feasible point (per unit tension, world frame).
-    Where finger_collision stopped a finger on the other, neither finger's forces are
-    determined (the finger-finger contact, model-notes D17)."""
-    touching = fingers_touch(fingers, j, i, finger)
+def point_forces(j, i, finger_l, finger_r, fingers, forces):
+    """Contact forces of both fingers at a feasible point (per unit tension, world frame), each
+    finger with its own friction (records.side_finger). Where finger_collision stopped a finger
+    on the other, neither finger's forces are determined (the finger-finger contact,
+    model-notes D17)."""
+    touching = fingers_touch(fingers, j, i, finger_l)
     for side in range(2):
-        st = finger_statics_at(fingers, side, j, i, finger)
+        st = finger_statics_at(fingers, side, j, i, finger_l if side == 0 else finger_r)
         forces.proximal_normal[side, j, i] = st.proximal_normal
         forces.distal_normal[side, j, i] = st.distal_normal
         forces.distal_multiplier[side, j, i] = st.distal_multiplier
@@ -891,6 +902,9 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
     equilibrium_out, contained, crossed = outs.equilibrium, outs.contained, outs.crossed
     caged, caging_score = outs.caged, outs.caging_score
     forces_on = with_forces(forces)
+    finger_l = side_finger(finger, hand, LEFT)
+    finger_r = side_finger(finger, hand, RIGHT)
+    cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
     for i in range(xs.shape[0]):
         x = xs[i]
         ml = np.int64(mode[0, j, i])
@@ -906,7 +920,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
             fill_infeasible(j, i, fingers, outs, forces, forces_on)
             continue
         if forces_on:
-            point_forces(j, i, finger, fingers, forces)
+            point_forces(j, i, finger_l, finger_r, fingers, forces)
         a1l = t1[0, j, i]
         a2l = t2[0, j, i]
         a1r = t1[1, j, i]
@@ -914,8 +928,8 @@ def outcome_row(j, xs, y, finger, hand, springs, tip, fingers, outs, forces, scr
         energy[j, i] = point_energy(a1l, a2l, a1r, a2r, finger, hand, springs)
         eq = False
         if c == REACHED and equilibrium:
-            eq = part_in_equilibrium(scratch, x, y, hand.w, r, finger.mu_s, ml, a1l, a2l, mr,
-                                     a1r, a2r, finger.l1, finger.l2, tip)
+            eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, a1l, a2l, mr, a1r,
+                                     a2r, finger.l1, finger.l2, tip)
             equilibrium_out[j, i] = eq
         l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
@@ -1200,6 +1214,136 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
                 a_count[j, a] = n + 1
 
 
+@inner
+def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, statics_l, links_r,
+                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy,
+                        mirror, half):
+    """Scenario C (MODEL 10): the counted poses of one map whose left finger touches the part
+    with friction hand.mu_left and the right with hand.mu_right (the palm: finger.mu_s), the
+    left finger read from the shared field `left` (solved at that friction, with its links and
+    statics), the right from `right`; every command's force (F_left of `commands`, F_right = 2 -
+    F_left) into the per-pose buffers.
+
+    The count rule of collect_counted_forces, pose by pose, with the same functions, so that a
+    pair's poses are those of its map (`compute_map(mu_left=, mu_right=)`): settled fingers
+    first (class, palm, statics, containment, S_geo), then finger_collision where the settled
+    fingers cross (hand.collide: a finger stopped on the other leaves the pose undetermined,
+    D17), then the part's equilibrium with each contact's own cone.
+
+    `mirror`: each counted pose x = i h also gives the pose -x of the swapped pair (left with
+    hand.mu_right, right with hand.mu_left), its mirror image (the model is mirror-symmetric,
+    MODEL 11; the fields, links and statics are the same numbers, and its forces are formed as
+    the swapped pair's own would be, bit for bit); with `half` (a pair that is its own swap),
+    only the poses x <= 0 are visited."""
+    r = finger.r
+    w = hand.w
+    collision = effects.finger_collision
+    cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
+    mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
+    mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
+    n_cols = ncol + 1 if half else xs.shape[0]
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for col in range(n_cols):
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared fields' columns (gather_fingers)
+            src_r = i - step - m_lo
+            ml = np.int64(mode_l[0, j, src_l])
+            mr = np.int64(mode_r[0, j, src_r])
+            if classify_point(y, r, ml, mr) != REACHED:
+                continue
+            x = xs[col]
+            if touches_palm(x, y, w, r):
+                continue
+            if statics_l[0, j, src_l] == 0.0 or statics_r[0, j, src_r] == 0.0:
+                continue
+            left_line = polyline_from_links(LEFT, w, links_l[0, j, src_l], links_l[1, j, src_l],
+                                            links_l[2, j, src_l], links_l[3, j, src_l])
+            right_line = polyline_from_links(RIGHT, w, links_r[0, j, src_r],
+                                             links_r[1, j, src_r], links_r[2, j, src_r],
+                                             links_r[3, j, src_r])
+            if not part_contained(x, y, left_line, right_line):
+                continue
+            crossed = fingers_cross(left_line, right_line)
+            s_geo = cage_score(CONTAINED, 0.0 if crossed else tip_clearance(left_line,
+                                                                               right_line), r)
+            if s_geo <= 0.0:
+                continue
+            a1l, a2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
+            a1r, a2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
+            if crossed and collision.on:  # (fingers that do not cross are left as settled)
+                changed, new_l, new_r = collide(finger, w, collision, ml, a1l, a2l,
+                                                k1_l[0, j, src_l], k2_l[0, j, src_l], mr, a1r,
+                                                a2r, k1_r[0, j, src_r], k2_r[0, j, src_r])
+                if changed:
+                    if (rests_on_other_finger(new_l[0], new_l[1], new_l[2], finger)
+                            or rests_on_other_finger(new_r[0], new_r[1], new_r[2], finger)):
+                        continue
+                    ml, a1l, a2l = new_l[0], new_l[1], new_l[2]
+                    mr, a1r, a2r = new_r[0], new_r[1], new_r[2]
+                    if classify_point(y, r, ml, mr) != REACHED:
+                        continue
+            if part_in_equilibrium(scratch, x, y, w, r, cones, ml, a1l, a2l, mr, a1r, a2r,
+                                   finger.l1, finger.l2, effects.tip_contact):
+                continue
+            lx = -statics_l[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics_l[2, j, src_l]
+            rx = statics_r[1, j, src_r]
+            ry = statics_r[2, j, src_r]
+            a = col - ncol + ncol_max
+            for f_left in commands:
+                n = count[j, a]
+                fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                count[j, a] = n + 1
+            if mirror and not (half and i == 0):
+                # the swapped pair at -x: its left finger is this right one mirrored (x force
+                # -rx), its right finger this left one (x force -lx)
+                a = -i + ncol_max
+                for f_left in commands:
+                    n = count[j, a]
+                    fx[j, a, n] = (f_left * -rx + (2.0 - f_left) * -lx) * s_geo
+                    fy[j, a, n] = (f_left * ry + (2.0 - f_left) * ly) * s_geo
+                    count[j, a] = n + 1
+
+
+@inner
+def append_forces(count, fx, fy, more_count, more_fx, more_fy):
+    """Each pose's forces in the `more` buffers appended to its own."""
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            for q in range(more_count[j, a]):
+                fx[j, a, n + q] = more_fx[j, a, q]
+                fy[j, a, n + q] = more_fy[j, a, q]
+            count[j, a] = n + more_count[j, a]
+
+
+@inner
+def friction_field(finger, mu, solver, effects, steps, ncols, ny, h):
+    """The shared finger field of a cell with the finger's contacts at friction `mu`, and its
+    links and statics (Scenario C's low-friction surface)."""
+    switched = FingerModel(finger.l1, finger.l2, finger.r1, finger.r2, finger.r, mu,
+                           finger.theta2_min, finger.theta2_max)
+    field, _, _ = shared_finger_field(switched, solver, effects, steps, ncols, ny, h)
+    links, statics = shared_finger_links_and_statics(field, switched)
+    return field, links, statics
+
+
+@inner
+def surrounds_origin(fx, fy):
+    """Forces on both sides of the origin in x and in y: without that, the origin is not
+    strictly inside their hull and the pose's value is 0 (hull.inscribed_radius returns 0 for
+    such a hull, so this only spares the hull)."""
+    left = right = below = above = False
+    for q in range(fx.shape[0]):
+        left |= fx[q] < 0.0
+        right |= fx[q] > 0.0
+        below |= fy[q] < 0.0
+        above |= fy[q] > 0.0
+    return left and right and below and above
+
+
 @entry
 def pose_radius_sum(count, fx, fy, pose_value, c):
     """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
@@ -1210,7 +1354,7 @@ def pose_radius_sum(count, fx, fy, pose_value, c):
         for a in range(count.shape[1]):
             n = count[j, a]
             value = 0.0
-            if n >= 3:
+            if n >= 3 and surrounds_origin(fx[j, a, :n], fy[j, a, :n]):
                 hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
                 value = inscribed_radius(hx, hy, hx.shape[0])
             total += value
@@ -1240,12 +1384,27 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h, j = 0 .. nys[c] - 1. With `manip`
     (a ManipulationOut with a row per cell; without: records.no_manipulation()) the contact
     forces are computed too and row c of `manip` receives the cell's manipulation metric data
-    (MODEL 10). With finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell
-    that filled it) are this call's memo of meetings (records.SettledFingers), filled while the
-    next cell has the same links, cleared when the links change (empty arrays without it)."""
+    (MODEL 10), Scenario C's too when `manip` has its low friction (a second shared field at
+    that friction, the pairs with a switched finger: collect_pair_forces). With
+    finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it)
+    are this call's memo of meetings (records.SettledFingers), filled while the next cell has
+    the same links, cleared when the links change (empty arrays without it)."""
     manipulation = wants_manipulation(manip)
+    scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
     no_forces = no_force_arrays()
+    scratch = np.empty(SCRATCH_ANGLES)
+    # Scenario C's low-friction field depends on the cell without its mu (the cells of one
+    # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
+    low_key = np.full(5, np.nan)
+    low = new_finger_arrays(np.int64(1), np.int64(0), np.int64(0))
+    low_links = np.empty((4, 0, 0))
+    low_statics = np.empty((3, 0, 0))
+    # the pair (mu_low, mu_low) does not depend on the part's mu either (palm poses never
+    # count): its forces, kept with the field (the manipulation metric wants every width)
+    low_count = np.zeros((0, 0), dtype=np.int64)
+    low_fx = np.empty((0, 0, 0))
+    low_fy = np.empty((0, 0, 0))
     for c in range(first, last):
         finger = cell_finger_model(cells, c, theta2_min, theta2_max)
         ny = nys[c]
@@ -1254,6 +1413,7 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                      and cells[c + 1, 1] == cells[c, 1])
         shared, m_lo, ys = shared_finger_field(finger, solver, effects, steps, cell_ncols, ny, h)
         ncol_max = np.int64(0)
+        slots = 0
         a_count = np.zeros((0, 0), dtype=np.int64)
         a_fx = np.empty((0, 0, 0))
         a_fy = np.empty((0, 0, 0))
@@ -1270,6 +1430,30 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
             links, statics = shared_finger_links_and_statics(shared, finger)
         elif collision:
             links = shared_finger_links(shared, finger)
+        # Scenario C: the pairs with a finger on the low friction, unless it is the part's own
+        # (then the four pairs are A's one, and C is A)
+        mu_low = manip.c_mu_low[0] if scenario_c else finger.mu_s
+        switching = mu_low != finger.mu_s
+        c_count = np.zeros((0, 0), dtype=np.int64)
+        c_fx = np.empty((0, 0, 0))
+        c_fy = np.empty((0, 0, 0))
+        fresh_low = False
+        if switching:
+            c_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+            c_fx = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            c_fy = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            key = (finger.l1, finger.l2, finger.r1, finger.r2, finger.r)
+            fresh_low = not (low_key[0] == key[0] and low_key[1] == key[1]
+                             and low_key[2] == key[2] and low_key[3] == key[3]
+                             and low_key[4] == key[4])
+            if fresh_low:
+                low, low_links, low_statics = friction_field(finger, mu_low, solver, effects,
+                                                             steps, cell_ncols, ny, h)
+                for q in range(5):
+                    low_key[q] = key[q]
+                low_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+                low_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+                low_fy = np.empty((ny, 2 * ncol_max + 1, slots))
         memo_read = False
         if collision:
             memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
@@ -1283,7 +1467,7 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
             xs, fingers = gather_fingers(shared, m_lo, steps[k], cell_ncols[k], ny, h)
             outs = new_outcome_arrays(ny, xs.shape[0])
             stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-            hand = Hand(ws[k], f_left, f_right, h)
+            hand = Hand(ws[k], f_left, f_right, h, finger.mu_s, finger.mu_s)
             settled = no_settled_fingers()
             if collision:  # the settled fingers' links, as gather_fingers reads the shared field
                 settled = SettledFingers(True, links, cell_ncols[k] - steps[k] - m_lo, -1,
@@ -1295,5 +1479,24 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
                 collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
                                        steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
                                        a_fx, a_fy)
+            if switching:
+                # (mu_low, mu_s), and its mirror image (mu_s, mu_low)
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, finger.mu_s),
+                    effects, low, shared, low_links, low_statics, links, statics, m_lo,
+                    steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch, c_count,
+                    c_fx, c_fy, MIRRORED, WHOLE_ROWS)
+            if fresh_low:  # (mu_low, mu_low), its own mirror image: half the poses
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, mu_low), effects,
+                    low, low, low_links, low_statics, low_links, low_statics, m_lo, steps[k],
+                    cell_ncols[k], ncol_max, manip.a_commands, scratch, low_count, low_fx,
+                    low_fy, MIRRORED, HALF_ROWS)
         if manipulation:
             manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
+        if switching:
+            append_forces(c_count, c_fx, c_fy, low_count, low_fx, low_fy)
+            append_forces(c_count, c_fx, c_fy, a_count, a_fx, a_fy)
+            manip.c_metric[c] = pose_radius_sum(c_count, c_fx, c_fy, manip.c_pose_value, c)
+        elif scenario_c:  # mu_low is the part's own: the same forces as A
+            manip.c_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.c_pose_value, c)

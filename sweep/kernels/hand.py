@@ -153,21 +153,29 @@ def touches_palm(x, y, w, r):
 
 
 @inner
-def part_in_equilibrium(angles, x, y, w, r, mu, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r, l1, l2,
-                        tip):
+def friction_cones(mu_palm, mu_left, mu_right):
+    """The friction cones' half-angles atan(mu) of the palm and of each finger's contacts
+    (MODEL 7; per finger: MODEL 10, Scenario C), once per row of a map, not per point."""
+    return math.atan(mu_palm), math.atan(mu_left), math.atan(mu_right)
+
+
+@inner
+def part_in_equilibrium(angles, x, y, w, r, cones, mode_l, t1_l, t2_l, mode_r, t1_r, t2_r, l1,
+                        l2, tip):
     """Cone-hull equilibrium of the part with both fingers' tangent contacts, their tip contacts
-    (with tip_contact: `tip.on`) and the palm.
+    (with tip_contact: `tip.on`) and the palm, each contact with its own friction cone:
+    `cones` = (palm, left finger, right finger) half-angles (`friction_cones`).
 
     `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
     """
-    cone = math.atan(mu)
-    n = finger_contact_normals(angles, np.int64(0), LEFT, mode_l, t1_l, t2_l, cone)
-    n = finger_contact_normals(angles, n, RIGHT, mode_r, t1_r, t2_r, cone)
+    cone_palm, cone_l, cone_r = cones
+    n = finger_contact_normals(angles, np.int64(0), LEFT, mode_l, t1_l, t2_l, cone_l)
+    n = finger_contact_normals(angles, n, RIGHT, mode_r, t1_r, t2_r, cone_r)
     if tip.on:
-        n = tip_contact_normal(angles, n, LEFT, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone)
-        n = tip_contact_normal(angles, n, RIGHT, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone)
+        n = tip_contact_normal(angles, n, LEFT, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone_l)
+        n = tip_contact_normal(angles, n, RIGHT, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone_r)
     if touches_palm(x, y, w, r):
-        n = add_contact(angles, n, 0.5 * math.pi, cone)
+        n = add_contact(angles, n, 0.5 * math.pi, cone_palm)
     if n < 4:
         return False
     return origin_in_cone_hull(angles, n)

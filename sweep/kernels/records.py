@@ -33,7 +33,8 @@ class FingerModel(NamedTuple):
     r1: float           # proximal pulley radius
     r2: float           # distal pulley radius
     r: float            # part (disc) radius
-    mu_s: float         # static friction coefficient between part and links (0: frictionless)
+    mu_s: float         # static friction coefficient of the part (0: frictionless): the palm's,
+                        # and the links' unless Hand gives a finger another (side_finger)
     theta2_min: float   # distal joint limits (rad); theta1 is always within [0, pi]
     theta2_max: float
 
@@ -151,12 +152,27 @@ def no_settled_fingers():
 
 
 class Hand(NamedTuple):
-    """What a map adds to two identical fingers: palm width, tendon tensions, grid spacing."""
+    """What a map adds to two fingers of one geometry: palm width, tendon tensions, grid
+    spacing, and the friction coefficient of each finger's contacts with the part (MODEL 10,
+    Scenario C: a finger's surface may differ from the part's nominal mu_s, which FingerModel
+    carries and the palm keeps; the paper's model has both equal to it)."""
 
     w: float
     f_left: float
     f_right: float
     h: float
+    mu_left: float
+    mu_right: float
+
+
+@inner
+def side_finger(finger, hand, side):
+    """The FingerModel of one finger of the hand (side LEFT or RIGHT): `finger` with its
+    contacts' friction, hand.mu_left or hand.mu_right (MODEL 10, Scenario C). A finger solves
+    alone (MODEL 4-5), so its friction is all that differs between the two."""
+    mu = hand.mu_left if side == LEFT else hand.mu_right
+    return FingerModel(finger.l1, finger.l2, finger.r1, finger.r2, finger.r, mu,
+                       finger.theta2_min, finger.theta2_max)
 
 
 class FingerState(NamedTuple):
@@ -236,7 +252,10 @@ class ManipulationOut(NamedTuple):
     part's lattice, the force (f_L + f_R) S_geo of the command F_left = F_right = 1, the width's
     index, whether the fingers cross there; n_entries[c] may exceed the capacity (then the cell
     must be redone with more). Scenario A: a_metric[c] = sum over poses of the inscribed radius of
-    the hull of the cell's forces over its widths and the commands F_left + F_right = 2."""
+    the hull of the cell's forces over its widths and the commands F_left + F_right = 2.
+    Scenario C (when c_mu_low has its one value, else empty): c_metric[c] the same over A's
+    forces and those of each finger switched to the low friction c_mu_low[0] (the four friction
+    pairs of MODEL 10)."""
 
     pose: np.ndarray          # (n_cells, capacity) int64
     fx: np.ndarray            # (n_cells, capacity)
@@ -249,6 +268,15 @@ class ManipulationOut(NamedTuple):
     a_commands: np.ndarray    # (n_commands,) F_left of Scenario A (F_right = 2 - F_left)
     a_pose_value: np.ndarray  # (n_cells, rows, columns) per-pose A values on the cell's widest
                               # map's grid when asked for (pictures), else (0, 0, 0)
+    c_mu_low: np.ndarray      # (1,) Scenario C's low friction when asked for, else (0,)
+    c_metric: np.ndarray      # (n_cells,) with Scenario C, else (0,)
+    c_pose_value: np.ndarray  # as a_pose_value, of Scenario C
+
+
+def no_scenario_c():
+    """ManipulationOut's Scenario C fields when C is not asked for: (c_mu_low, c_metric,
+    c_pose_value), empty."""
+    return np.zeros(0), np.zeros(0), np.zeros((0, 0, 0))
 
 
 def no_manipulation():
@@ -257,13 +285,20 @@ def no_manipulation():
     return ManipulationOut(np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0)),
                            np.zeros((0, 0), dtype=np.int64), np.zeros((0, 0), dtype=np.bool_),
                            np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64),
-                           np.zeros(0), np.zeros((0, 0, 0)))
+                           np.zeros(0), np.zeros((0, 0, 0)), *no_scenario_c())
 
 
 @inner
 def wants_manipulation(manip):
     """Whether the manipulation metric is asked for: `manip` has a row per cell."""
     return manip.n_entries.shape[0] > 0
+
+
+@inner
+def wants_scenario_c(manip):
+    """Whether Scenario C is asked for with the manipulation metric: `manip` has its low
+    friction."""
+    return manip.c_mu_low.shape[0] > 0
 
 
 @entry

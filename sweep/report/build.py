@@ -12,6 +12,9 @@ writes into `out_dir`:
 - `manipulation.png`, `manipulation.csv`, `scenario_a_candidates.csv`: Scenario A's best
   candidate against Scenario B for every part, and the per-pose values of one part;
 - `parameter_usage.png`, `parameter_usage.csv`: Scenario B's parameter usage;
+- with Scenario C (friction modulation, `outputs.scenario_c`): `friction.png`, `friction.csv`,
+  `friction_candidates.csv`, `caging_modulation.csv`: per part A, C and B side by side, C's
+  candidates, and caging under modulation of A's best candidate;
 - `report.md`: every table, the rules used, the settings, the run time and a templated reading;
 - `report.json`: what the report was made from (a rerun on the same store is a no-op).
 
@@ -33,7 +36,7 @@ from .. import __version__
 from ..outputs import text_bytes
 from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, best_columns,
                      refinement_rows)
-from . import caging, manipulation, tip, usage
+from . import caging, friction, manipulation, tip, usage
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
                    fmt, identity, md_table, part_text, report_files, resolve_top_k)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
@@ -53,7 +56,11 @@ MANIPULATION_FILES = ("manipulation.png", "manipulation.csv", "scenario_a_candid
                       "parameter_usage.png", "parameter_usage.csv")
 
 
-ALL_FILES = CAGING_FILES + MANIPULATION_FILES + ("report.md", MARKER)
+FRICTION_FILES = ("friction.png", "friction.csv", "friction_candidates.csv",
+                  "caging_modulation.csv")
+
+
+ALL_FILES = CAGING_FILES + MANIPULATION_FILES + FRICTION_FILES + ("report.md", MARKER)
 
 
 @dataclass
@@ -68,10 +75,13 @@ class Report:
     manipulation: list[dict] = field(default_factory=list)
     usage: list[dict] = field(default_factory=list)
     pose_part: dict | None = None
+    friction_candidates: list[dict] = field(default_factory=list)
+    friction: list[dict] = field(default_factory=list)
+    modulation: list[dict] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
 
 
-def make_tables(st: StoreData, top_k: int | None) -> Report:
+def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
     rep = Report(best=best_caging_rows(st), caging_tip=caging_tip_rows(st),
                  representatives=representative_rows(st), top_k=top_k)
     if st.manipulation:
@@ -80,6 +90,11 @@ def make_tables(st: StoreData, top_k: int | None) -> Report:
         rep.manipulation = manipulation_rows(st, best)
         rep.usage = usage_rows(st)
         rep.pose_part = rep.manipulation[pose_map_part(rep.manipulation)]
+        if st.scenario_c:
+            rep.friction_candidates = friction.c_candidate_rows(st, top_k)
+            c_best = next(c for c in rep.friction_candidates if c["best"])
+            rep.friction = friction.friction_rows(st, best, c_best)
+            rep.modulation = friction.modulation_rows(st, best, log)
     return rep
 
 
@@ -89,7 +104,7 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     last, so a complete marker means a complete report)."""
     st = st or open_store(Path(store))
     top_k = resolve_top_k(st, top_k)
-    rep = make_tables(st, top_k)
+    rep = make_tables(st, top_k, log)
     write, finish = report_files(Path(out_dir), identity(st, top_k), rep.files)
 
     write("best_caging.csv", csv_bytes(rep.best, best_columns(st)))
@@ -105,6 +120,14 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
         best = next(c for c in rep.candidates if c["best"])
         write("manipulation.png", png(manipulation_figure(
             st, rep.manipulation, best, rep.manipulation.index(rep.pose_part), log)))
+    if rep.friction:
+        write("friction_candidates.csv", csv_bytes(rep.friction_candidates,
+                                                   friction.C_CAND_COLUMNS))
+        write("friction.csv", csv_bytes(rep.friction, friction.FRICTION_COLUMNS))
+        write("caging_modulation.csv", csv_bytes(rep.modulation, friction.MODULATION_COLUMNS))
+        write("friction.png", png(friction.friction_figure(
+            st, rep.friction, rep.modulation, next(c for c in rep.candidates if c["best"]),
+            next(c for c in rep.friction_candidates if c["best"]))))
     write("best_caging.png", png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", text_bytes(markdown(st, rep)))
@@ -117,6 +140,8 @@ def reading(st: StoreData, rep: Report) -> list[str]:
     out = caging.reading(st, rep) + tip.reading(st, rep)
     if st.manipulation:
         out += manipulation.reading(st, rep) + usage.reading(st, rep)
+    if rep.friction:
+        out += friction.reading(st, rep)
     return out
 
 
@@ -173,6 +198,35 @@ def comparison(st: StoreData, rep: Report) -> list[str]:
     return out
 
 
+def friction_section(st: StoreData, rep: Report) -> list[str]:
+    """Section 5 of report.md: Scenario C's tables, or why there are none."""
+    if not rep.friction:
+        return ["Skipped: this store has no Scenario C. Rerun the sweep with `outputs: "
+                "{manipulation: true, scenario_c: {mu_low: 0.0}}` in its config (`make "
+                "friction` runs the paper's two scenes so)."]
+    c_best = next(c for c in rep.friction_candidates if c["best"])
+    return [
+        f"A's gripper whose fingers each switch between the part's μ and μ_low = "
+        f"{fmt(st.mu_low)} (the palm keeps μ): per pose the hull over every palm width, command "
+        "and friction pair (μ_left, μ_right) in {μ_low, μ}² (MODEL 10; model-notes D31-D34). "
+        f"C's candidates are A's ({len(rep.friction_candidates)}); the best by C's metric "
+        f"summed over parts is l1 = {fmt(c_best['l1'])}, l2 = {fmt(c_best['l2'])}, r1 = "
+        f"{fmt(c_best['r1'])}, r2 = {fmt(c_best['r2'])} ({fmt(c_best['c_sum'])}).", "",
+        "Per part (a: A's best candidate; c: C's best candidate; c_of_a_best: C of A's best "
+        "candidate; b: B; recovered: (c - a) / (b - a) where B gains over A; verdict: what "
+        "switching friction does against variable geometry, D34):", "",
+        md_table(rep.friction, friction.FRICTION_COLUMNS), "",
+        "Caging under modulation, A's best candidate (every quantity at the palm width where "
+        "it is largest, w_*; Λ and caging area Λ h²; s: both fingers on the part's μ, low: "
+        "both on μ_low with the palm on μ, dh: draw in on μ_low, then hold on μ; n_dh: the "
+        "starts that count; best_area: the part's largest caging area over every geometry at "
+        "the same h, D33):", "",
+        md_table(rep.modulation, friction.MODULATION_COLUMNS), "",
+        "C's candidates, largest summed metric first (at most 20 here; all in the CSV):", "",
+        md_table(sorted(rep.friction_candidates, key=lambda c: -c["c_sum"])[:20],
+                 friction.C_CAND_COLUMNS)]
+
+
 def markdown(st: StoreData, rep: Report) -> str:
     a = st.attrs
     sc = st.scene
@@ -200,6 +254,8 @@ def markdown(st: StoreData, rep: Report) -> str:
           "- Manipulation metric: "
           + (f"yes; Scenario A top-k = {rep.top_k} (store attribute "
              f"manipulation_scenario_a_top_k = {a.get('manipulation_scenario_a_top_k')})"
+             + (f"; Scenario C (friction modulation) with μ_low = {fmt(st.mu_low)}"
+                if st.scenario_c else "; no Scenario C")
              if st.manipulation else
              "**not in this store** (config option `outputs: {manipulation: true}` was not set):"
              " the manipulation and parameter-usage parts are skipped"),
@@ -307,6 +363,9 @@ def markdown(st: StoreData, rep: Report) -> str:
         L += ["", "## 3, 4. Manipulation and parameter usage", "",
               "Skipped: this store has no manipulation variables. Rerun the sweep with "
               "`outputs: {manipulation: true}` in its config."]
+    L += ["", "## 5. Friction modulation, Scenario C (`friction.png`, `friction.csv`, "
+          "`friction_candidates.csv`, `caging_modulation.csv`)", ""]
+    L += friction_section(st, rep)
     L += ["", "## Reading", ""] + reading(st, rep)
     L += ["", "## Compared with the paper", ""] + comparison(st, rep)
     L.append("")

@@ -11,6 +11,9 @@ designs, parts and grid (`check_comparable` refuses others) and writes into `out
 - `manipulation.png`, `manipulation.csv`, `scenario_a_candidates.csv`: Scenario A's best
   candidate against Scenario B per part under each scene, and Scenario B's per-pose values;
 - `parameter_usage.png`, `parameter_usage.csv`: Scenario B's parameter usage of each scene;
+- with Scenario C in both stores: `friction.png`, `friction.csv`, `friction_candidates.csv`,
+  `caging_modulation.csv`: per part A, C and B under each scene, and each scene's caging under
+  modulation;
 - `report.md`: every table, the rules, both scenes' settings, a templated reading and which
   scene a designer should trust for hardware;
 - `report.json`: what the report was made from (a rerun on the same stores is a no-op).
@@ -27,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from . import caging, manipulation, tip, usage
+from . import caging, friction, manipulation, tip, usage
 from .caging import best_caging_rows
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, Comparison, StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
@@ -41,6 +44,7 @@ from .style import png
 FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
          "representative_designs.csv", "manipulation.png", "manipulation.csv",
          "scenario_a_candidates.csv", "parameter_usage.png", "parameter_usage.csv",
+         "friction.png", "friction.csv", "friction_candidates.csv", "caging_modulation.csv",
          "report.md", MARKER)
 
 
@@ -180,7 +184,11 @@ MANIP_COLUMNS = ["r", "mu", "a_1", "b_1", "b_uncrossed_1", "winner_1", "a_2", "b
 USAGE_COLUMNS = (["r", "mu"] + [f"{p}_1" for p in PARAMETERS] + [f"{p}_2" for p in PARAMETERS])
 
 
-def make_tables(st1: StoreData, st2: StoreData, top_k: int | None) -> Comparison:
+C_CAND_COLUMNS = ["scene"] + friction.C_CAND_COLUMNS
+
+
+def make_tables(st1: StoreData, st2: StoreData, top_k: int | None,
+                log=lambda s: None) -> Comparison:
     rep = Comparison(best=best_rows(st1, st2), caging_tip=caging_tip_rows(st1, st2),
                      caging_tip_summary=caging_tip_summary(st1, st2),
                      representatives=representatives(st1, st2), top_k=top_k)
@@ -193,6 +201,18 @@ def make_tables(st1: StoreData, st2: StoreData, top_k: int | None) -> Comparison
         rep.best_candidates = (best1, best2)
         rep.manipulation = manip_rows(st1, st2, best1, best2)
         rep.usage = usage_pair_rows(st1, st2)
+        if st1.scenario_c and st2.scenario_c:
+            scenes, cagings = [], []
+            for s, st, a_best in (("1", st1, best1), ("2", st2, best2)):
+                cands = friction.c_candidate_rows(st, top_k)
+                rep.friction_candidates += [dict(scene=s, **c) for c in cands]
+                scenes.append(friction.friction_rows(st, a_best,
+                                                     next(c for c in cands if c["best"])))
+                cagings.append(friction.modulation_rows(
+                    st, a_best, lambda m, s=s: log(f"scene {s}: {m}")))
+            rep.friction_scenes, rep.modulation_scenes = tuple(scenes), tuple(cagings)
+            rep.friction = friction.pair_rows(*scenes)
+            rep.modulation = friction.pair_rows(*cagings)
     return rep
 
 
@@ -213,7 +233,7 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     """Write every file of the two-scene report into `out_dir` (atomically, one by one;
     `report.json` last, so a complete marker means a complete report)."""
     st1, st2, top_k = pair or open_pair(store_1, store_2, top_k)
-    rep = make_tables(st1, st2, top_k)
+    rep = make_tables(st1, st2, top_k, log)
     write, finish = report_files(Path(out_dir), comparison_identity(st1, st2, top_k), rep.files)
 
     write("best_designs.csv", csv_bytes(rep.best, best_columns(st1, st2)))
@@ -225,6 +245,15 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write("parameter_usage.csv", csv_bytes(rep.usage, USAGE_COLUMNS))
         write("parameter_usage.png", png(usage.pair_figure(st1, st2, rep.usage)))
         write("manipulation.png", png(manipulation.pair_figure(st1, st2, rep)))
+    if rep.friction:
+        write("friction_candidates.csv", csv_bytes(rep.friction_candidates, C_CAND_COLUMNS))
+        write("friction.csv", csv_bytes(
+            rep.friction, ["r", "mu"] + [f"{k}_{s}" for s in ("1", "2")
+                                         for k in friction.FRICTION_COLUMNS[2:]]))
+        write("caging_modulation.csv", csv_bytes(
+            rep.modulation, ["r", "mu"] + [f"{k}_{s}" for s in ("1", "2")
+                                           for k in friction.MODULATION_COLUMNS[2:]]))
+        write("friction.png", png(friction.pair_figure(st1, st2, rep)))
     write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
     write("best_designs.png", png(caging.pair_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
@@ -338,6 +367,8 @@ def reading(st1: StoreData, st2: StoreData, rep: Comparison) -> list[str]:
                    "scene 1 against scene 2: "
                    + ", ".join(f"{p} {fmt(means[0][i])} / {fmt(means[1][i])}"
                                for i, p in enumerate(PARAMETERS)) + ".")
+    if rep.friction:
+        out += friction.pair_reading(st1, st2, rep)
     return out
 
 
@@ -411,6 +442,25 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
         L += ["", "## 3, 4. Manipulation and parameter usage", "",
               "Skipped: the stores have no manipulation variables (config option "
               "`outputs: {manipulation: true}`)."]
+    L += ["", "## 5. Friction modulation, Scenario C (`friction.png`, `friction.csv`, "
+          "`friction_candidates.csv`, `caging_modulation.csv`)", ""]
+    if rep.friction:
+        L += [f"A's gripper whose fingers each switch between the part's μ and μ_low "
+              f"(scene 1: {fmt(st1.mu_low)}, scene 2: {fmt(st2.mu_low)}); the palm keeps μ "
+              "(MODEL 10; model-notes D31-D34; each scene's single-store report has every "
+              "column). a, c, b: A's best candidate, C's best candidate, B; recovered: (c - a) "
+              "/ (b - a) where B gains over A.", "",
+              md_table(rep.friction, friction.PAIR_FRICTION_COLUMNS), "",
+              "Caging under modulation of each scene's best A candidate (caging areas at the "
+              "width where each is largest; s: fingers on μ, low: on μ_low, dh: draw in on "
+              "μ_low then hold on μ; best_area: the largest over every geometry at the same h):",
+              "",
+              md_table(rep.modulation, friction.PAIR_MODULATION_COLUMNS), "",
+              "Best C candidates:", "",
+              md_table([c for c in rep.friction_candidates if c["best"]], C_CAND_COLUMNS)]
+    else:
+        L += ["Skipped: Scenario C is not in both stores (config option `outputs: "
+              "{manipulation: true, scenario_c: {mu_low: 0.0}}`; `make friction`)."]
     L += ["", "## Reading", ""] + reading(st1, st2, rep)
     L.append("")
     return "\n".join(L)

@@ -103,6 +103,16 @@ class StoreData:
         return dict(zip(DESIGN_DIMS, map(float, self._designs[flat])))
 
     @property
+    def scenario_c(self) -> bool:
+        """The store holds Scenario C, friction modulation (MODEL 10; `outputs.scenario_c`)."""
+        return self.manipulation and "manipulation_c" in self.ds
+
+    @property
+    def mu_low(self) -> float:
+        """Scenario C's low friction (NaN without it)."""
+        return float(self.attrs.get("manipulation_scenario_c_mu_low", math.nan))
+
+    @property
     def refined(self) -> bool:
         """The store holds the refinement stage's variables (`sweep.runs.refine`)."""
         return "refine_status" in self.ds
@@ -136,6 +146,38 @@ def design_ranking(st: StoreData, ri: int, mi: int) -> np.ndarray:
                        st.per_design("refined_caging_area", ri, mi),
                        st.per_design("caging_area", ri, mi))
     return np.argsort(-tie_key(st.per_design("Lambda", ri, mi)), kind="stable")
+
+
+def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
+    """(l1, l2, r1, r2) index tuples of the top-k caging designs of every part
+    (`design_ranking`: refined where the store is), duplicates merged, in store order: Scenario
+    A's candidates, and Scenario C's (MODEL 10)."""
+    shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
+    found = set()
+    for ri, mi in st.parts():
+        for k in design_ranking(st, ri, mi)[:top_k]:
+            found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
+    return sorted(found)
+
+
+def candidate_metric_rows(st: StoreData, top_k: int, scenario: str) -> list[dict]:
+    """Every candidate (`scenario_a_candidates`) with its Scenario `scenario` metric ("a" or
+    "c": the store's `manipulation_a` or `manipulation_c`, and its `_area`) summed over all
+    parts (`{scenario}_sum`, `{scenario}_area_sum`, `parts_positive`); the best one (largest
+    sum, first in store order among ties at TIE_DIGITS) is flagged."""
+    metric = st.ds[f"manipulation_{scenario}"].transpose(*CANDIDATE_DIMS, "r", "mu").values
+    area = st.ds[f"manipulation_{scenario}_area"].transpose(*CANDIDATE_DIMS, "r", "mu").values
+    rows = []
+    for c in scenario_a_candidates(st, top_k):
+        vals = {d: float(st.ds[d].values[i]) for d, i in zip(CANDIDATE_DIMS, c)}
+        rows.append({**vals, "R": vals["r2"] / vals["r1"],
+                     f"{scenario}_sum": float(np.nansum(metric[c])),
+                     f"{scenario}_area_sum": float(np.nansum(area[c])),
+                     "parts_positive": int(np.count_nonzero(metric[c] > 0)), "best": False,
+                     "index": c})
+    if rows:
+        rows[int(np.argmax(tie_key([row[f"{scenario}_sum"] for row in rows])))]["best"] = True
+    return rows
 
 
 def best_design(st: StoreData, ri: int, mi: int) -> dict:
@@ -319,4 +361,9 @@ class Comparison:
     best_candidates: tuple = ()
     manipulation: list[dict] = field(default_factory=list)
     usage: list[dict] = field(default_factory=list)
+    friction_candidates: list[dict] = field(default_factory=list)
+    friction_scenes: tuple = ()      # each scene's Scenario C rows (report.friction)
+    friction: list[dict] = field(default_factory=list)       # both side by side
+    modulation_scenes: tuple = ()    # each scene's caging-under-modulation rows
+    modulation: list[dict] = field(default_factory=list)     # both side by side
     files: list[str] = field(default_factory=list)

@@ -7,37 +7,15 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.batch import scenario_a_pose_values
-from .data import (CANDIDATE_DIMS, Comparison, DESIGN_DIMS, StoreData, design_ranking, fmt,
-                   part_text, scene_name, short_scene, tie_key)
+from .data import (CANDIDATE_DIMS, Comparison, StoreData, candidate_metric_rows, fmt, part_text,
+                   scene_name, short_scene)
 from .style import NOTE_UNITLESS, SCENE_COLOURS
-
-
-def scenario_a_candidates(st: StoreData, top_k: int) -> list[tuple[int, ...]]:
-    """(l1, l2, r1, r2) index tuples of the top-k caging designs of every part
-    (`design_ranking`: refined where the store is), duplicates merged, in store order."""
-    shape = tuple(st.ds[d].size for d in DESIGN_DIMS)
-    found = set()
-    for ri, mi in st.parts():
-        for k in design_ranking(st, ri, mi)[:top_k]:
-            found.add(tuple(int(i) for i in np.unravel_index(int(k), shape)[:4]))
-    return sorted(found)
 
 
 def candidate_rows(st: StoreData, top_k: int) -> list[dict]:
     """Every Scenario A candidate with its metric summed over all parts; the best one (largest
     sum, first in store order among ties) is flagged."""
-    a = st.ds["manipulation_a"].transpose(*CANDIDATE_DIMS, "r", "mu").values
-    a_area = st.ds["manipulation_a_area"].transpose(*CANDIDATE_DIMS, "r", "mu").values
-    rows = []
-    for c in scenario_a_candidates(st, top_k):
-        vals = {d: float(st.ds[d].values[i]) for d, i in zip(CANDIDATE_DIMS, c)}
-        rows.append(dict(**vals, R=vals["r2"] / vals["r1"], a_sum=float(np.nansum(a[c])),
-                         a_area_sum=float(np.nansum(a_area[c])),
-                         parts_positive=int(np.count_nonzero(a[c] > 0)), best=False, index=c))
-    if rows:
-        best = int(np.argmax(tie_key([row["a_sum"] for row in rows])))
-        rows[best]["best"] = True
-    return rows
+    return candidate_metric_rows(st, top_k, "a")
 
 
 def manipulation_rows(st: StoreData, best: dict) -> list[dict]:

@@ -30,8 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
-from ..compute.layout import kernel_records
-from ..kernels.records import Hand
+from ..compute.layout import hand_record, kernel_records
 from ..kernels.streamline import max_streamline_steps, streamline_walk
 from ..kernels.field import (
     SLIDE_REJOINS, downhill_neighbour, max_slide_points, new_memo, slide_successor,
@@ -94,7 +93,7 @@ def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
     ny, nx = energy.shape
     h = _grid_step(m)
     finger, solver, blocks = kernel_records(m.design, m.part, m.limits, m.accuracy, m.effects)
-    hand = Hand(float(m.design.w), float(m.command.f_left), float(m.command.f_right), h)
+    hand = hand_record(m.design.w, m.command, h, finger, m.mu_left, m.mu_right)
     buf = np.empty((max_slide_points(ny, nx), 2))
     p = int(start)
     points = []
@@ -244,8 +243,8 @@ def _title(m) -> tuple[str, str]:
     d, pt, c, a = m.design, m.part, m.command, m.attrs
     g = lambda v: f"{v:g}"  # noqa: E731
     title = (f"Energy map   design l1={g(d.l1)} l2={g(d.l2)} r1={g(d.r1)} r2={g(d.r2)} "
-             f"w={g(d.w)}   part r={g(pt.r)} μ={g(pt.mu)}   command F_left={g(c.f_left)} "
-             f"F_right={g(c.f_right)}")
+             f"w={g(d.w)}   part r={g(pt.r)} μ={g(pt.mu)}{_finger_mu_text(m)}   command "
+             f"F_left={g(c.f_left)} F_right={g(c.f_right)}")
     line1 = (f"Λ = {a.get('Lambda', float('nan')):.1f}    caging area Λh² = "
              f"{a.get('caging_area', float('nan')):.3f}    h = {g(_grid_step(m))}    "
              f"P_j = {a.get('n_reached', 0)} of {a.get('n_points', 0)} points")
@@ -265,6 +264,15 @@ def _title(m) -> tuple[str, str]:
     if extra:
         line1 += "    |    " + ", ".join(extra)
     return title, line1 + "\n" + line2
+
+
+def _finger_mu_text(m) -> str:
+    """The fingers' own friction where a map gives them one (MODEL 10, Scenario C), else ""."""
+    if m.mu_left is None and m.mu_right is None:
+        return ""
+    left = m.part.mu if m.mu_left is None else m.mu_left
+    right = m.part.mu if m.mu_right is None else m.mu_right
+    return f" (fingers μ_L={left:g} μ_R={right:g}, palm μ)"
 
 
 def _map_view(m) -> dict:

@@ -140,14 +140,15 @@ def compute_items(scene: Scene, start: int, stop: int) -> np.ndarray:
 
 
 def compute_items_with_manipulation(scene: Scene, start: int, stop: int):
-    """Summaries and manipulation data (MODEL 10) of items [start, stop): the scene has one
-    command (scene validation), so one kernel call."""
+    """Summaries and manipulation data (MODEL 10, Scenario C too when the scene asks for it) of
+    items [start, stop): the scene has one command (scene validation), so one kernel call."""
     cells, _ = scene.cells(start, stop)
     r_index = scene.part_keys(start, stop)[:, 0]
     return batch.manipulation_cells(
         cells, scene.widths, scene.h, scene.limits, scene.accuracy, scene.effects,
         np.arange(start, stop, dtype=np.int64), scene.part_keys(start, stop),
-        scene.lattice_columns()[r_index], command=scene.commands[0])
+        scene.lattice_columns()[r_index], command=scene.commands[0],
+        mu_low=scene.scenario_c_mu_low)
 
 
 def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bool = True,

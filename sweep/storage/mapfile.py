@@ -31,11 +31,21 @@ def map_root_attrs(m: EnergyMap) -> dict:
     # absent: the default outputs energy, equilibrium, caging (files written before outputs existed)
     if tuple(m.outputs) != DEFAULT_OUTPUTS:
         attrs["outputs_on"] = list(m.outputs)
+    # absent: both fingers touch the part with its own mu (the paper's model)
+    if m.mu_left is not None or m.mu_right is not None:
+        attrs["finger_friction"] = finger_friction(m)
     attrs.update(effect_attributes(m.effects))
     for key, value in m.attrs.items():
         attrs[key] = value
     attrs.update(provenance())
     return attrs
+
+
+def finger_friction(m: EnergyMap) -> dict:
+    """Each finger's contact friction of a map (MODEL 10, Scenario C), the palm's being the
+    part's mu."""
+    return dict(left=m.part.mu if m.mu_left is None else m.mu_left,
+                right=m.part.mu if m.mu_right is None else m.mu_right, palm=m.part.mu)
 
 
 def write_map(path: str | Path, m: EnergyMap, extra_attrs: dict | None = None) -> Path:
@@ -82,6 +92,10 @@ def describe(m: EnergyMap) -> str:
     if "n_collision_changed" in a:
         lines.append(f"finger_collision changed the configuration at "
                      f"{a['n_collision_changed']:,} points")
+    if m.mu_left is not None or m.mu_right is not None:
+        fr = finger_friction(m)
+        lines.append(f"finger friction: left {fr['left']:g}, right {fr['right']:g} (palm "
+                     f"{fr['palm']:g})")
     lines.append(f"computed in {a['seconds_total'] * 1e3:.1f} ms")
     if not math.isfinite(a.get("Lambda", 0.0)):
         lines.append("warning: non-finite Lambda")

@@ -260,7 +260,7 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
                for name in fields}
         if scene.manipulation:
             _write_manipulation_coordinates(f, scene)
-            for name in ("manipulation_a", "manipulation_a_area"):
+            for name in candidate_variables(scene):
                 out[name] = create_variable(f, name, [scene.axis_len(d) for d in A_DIMS],
                                             np.float64, A_DIMS, MANIPULATION_ATTRS[name])
         h2 = scene.h * scene.h
@@ -270,10 +270,11 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
             for name in fields:
                 out[name][at] = arrays[name]
             if scene.manipulation:        # one command (scene validation)
-                a = _item_axes(scene, items[1], (), A_DIMS + ("command",), True)[..., 0]
                 at = group_slab(scene, group, A_DIMS)
-                out["manipulation_a"][at] = a
-                out["manipulation_a_area"][at] = a * h2
+                for metric, name in zip(items[1:], ("manipulation_a", "manipulation_c")):
+                    value = _item_axes(scene, metric, (), A_DIMS + ("command",), True)[..., 0]
+                    out[name][at] = value
+                    out[name + "_area"][at] = value * h2
         if scene.manipulation:
             for name, value in part_arrays(scene, blocks).items():
                 write_variable(f, name, value, PART_ARRAY_DIMS.get(name, ("r", "mu")),
@@ -305,6 +306,9 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
                          manipulation_scenario_a_top_k=scene.scenario_a_top_k,
                          manipulation_note="forces per unit tendon tension times the pose's "
                          "geometric cage score S_geo; values are unitless")
+        if scene.scenario_c:
+            attrs.update(manipulation_scenario_c_mu_low=scene.scenario_c_mu_low,
+                         manipulation_scenario_c_note=SCENARIO_C_NOTE)
         attrs.update(extra_attrs or {})
         set_root_attrs(f, attrs)
 
@@ -320,15 +324,19 @@ def _in_item_order(blocks: Sequence[Block], start: int, stop: int) -> list[Block
 
 def _block_items(scene: Scene, b: Block) -> list[np.ndarray]:
     """What the store needs of a block per item: its summaries and, with the manipulation
-    metric, its Scenario A metrics."""
+    metric, its Scenario A metrics (and Scenario C's, when the scene has it)."""
     out = [b.data if b.data is not None else read_block(b.path).data]
     if scene.manipulation:
+        names = ("a_metric", "c_metric") if scene.scenario_c else ("a_metric",)
         with _manipulation_group(b.path) as g:
-            a = g["a_metric"][...]
-        if a.shape != (b.stop - b.start,):
-            raise CorruptFile(f"{b.path.name}: {a.shape[0]} Scenario A metrics for items "
-                              f"{b.start}-{b.stop}")
-        out.append(a)
+            for name in names:
+                if name not in g:
+                    raise CorruptFile(f"{b.path.name}: no {name} (written without Scenario C?)")
+                metric = g[name][...]
+                if metric.shape != (b.stop - b.start,):
+                    raise CorruptFile(f"{b.path.name}: {metric.shape[0]} {name} values for "
+                                      f"items {b.start}-{b.stop}")
+                out.append(metric)
     return out
 
 
@@ -533,6 +541,15 @@ MANIPULATION_ATTRS = {
                   "(MODEL 10); grows as 1/h^2", units="force (per unit tension, unitless)"),
     "manipulation_a_area": dict(long_name="manipulation_a * h^2 (resolution-independent)",
                                 units="force x length^2 (unitless)"),
+    "manipulation_c": dict(
+        long_name="Scenario C (friction modulation) manipulation metric of the candidate (l1, "
+                  "l2, r1, r2) for the part (r, mu): as manipulation_a, with each finger's "
+                  "contact friction switched independently between the part's mu and "
+                  "manipulation_scenario_c_mu_low (the four friction pairs; the palm keeps mu; "
+                  "MODEL 10); never below manipulation_a", units="force (per unit tension, "
+                  "unitless)"),
+    "manipulation_c_area": dict(long_name="manipulation_c * h^2 (resolution-independent)",
+                                units="force x length^2 (unitless)"),
     "manipulation_b": dict(
         long_name="Scenario B manipulation metric of the part: sum over poses of the largest "
                   "origin-centred circle inside the hull of the forces of every geometry of the "
@@ -553,8 +570,19 @@ MANIPULATION_ATTRS = {
 }
 
 
-#: Dimensions of the Scenario A variables, and of the per-part ones other than (r, mu).
+#: Dimensions of the Scenario A (and C) variables, and of the per-part ones other than (r, mu).
 A_DIMS = ("l1", "l2", "r1", "r2", "r", "mu")
+
+SCENARIO_C_NOTE = ("Scenario C: Scenario A's gripper whose fingers each present either the "
+                   "part's mu or manipulation_scenario_c_mu_low (friction modulation, MODEL 10); "
+                   "per pose the hull over every width, command and friction pair (mu_left, "
+                   "mu_right); candidates as Scenario A's")
+
+
+def candidate_variables(scene: Scene) -> tuple[str, ...]:
+    """The store's variables per candidate (l1, l2, r1, r2) and part: Scenario A's, and C's."""
+    names = ("manipulation_a", "manipulation_a_area")
+    return names + (("manipulation_c", "manipulation_c_area") if scene.scenario_c else ())
 PART_ARRAY_DIMS = {"parameter_usage": ("r", "mu", "parameter"),
                    "manipulation_b_pose_value": ("r", "mu", "pose_row", "pose_column")}
 
@@ -642,7 +670,8 @@ def write_bytes(scene: Scene, block_items: int) -> int:
         lattice = (scene.lattice_rows() + 1) * (2 * int(scene.lattice_columns().max()) + 1)
         total += 8 * MERGE_ROWS * REDUCTION_ROW_BYTES + 2 * BATCH_ROWS * REDUCTION_ROW_BYTES
         n_parts = len(scene.values["r"]) * len(scene.values["mu"])
-        total += lattice * 8 * (2 + len(PARAMETER_NAMES) + n_parts) + block_items * 8
+        metrics = 2 if scene.scenario_c else 1   # A's metric per item, and C's
+        total += lattice * 8 * (2 + len(PARAMETER_NAMES) + n_parts) + metrics * block_items * 8
     return total
 
 
