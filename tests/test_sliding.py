@@ -439,11 +439,10 @@ def kernel_slide_stops(m):
     own slide (kernels/field.py: slide_successor, called as trajectory_ends calls it, with the
     map's memo and collision context) from that grid point, and the last position it records:
     where the part rejoined the grid, left P_j or the window, or stopped."""
-    from sweep.compute.layout import kernel_records
+    from sweep.compute.layout import hand_record, kernel_records
     from sweep.kernels.field import (downhill_neighbour, max_slide_points, memo_for_slide,
                                      new_memo, slide_successor)
     from sweep.kernels.hand import slide_context
-    from sweep.kernels.records import Hand
 
     f = m.fields
     energy = np.asarray(f["energy"], dtype=np.float64)
@@ -453,7 +452,7 @@ def kernel_slide_stops(m):
     ny, nx = energy.shape
     h = m.grid.h
     finger, solver, blocks = kernel_records(m.design, m.part, m.limits, m.accuracy, m.effects)
-    hand = Hand(float(m.design.w), float(m.command.f_left), float(m.command.f_right), float(h))
+    hand = hand_record(m.design.w, m.command, h, finger)
     memo = new_memo(1, hand.f_left == hand.f_right)
     context = slide_context(finger, hand.w, blocks.finger_collision)
     path = np.empty((max_slide_points(ny, nx), 2))

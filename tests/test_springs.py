@@ -155,3 +155,26 @@ def test_sweep_path_with_springs_gives_the_maps_summaries():
             assert set(m.attrs) >= set(expected)
             for name in expected:
                 assert m.attrs[name] == expected[name], name
+
+
+@pytest.mark.parametrize("collision", [False, True], ids=["base", "collision"])
+def test_springs_and_tensions_scaled_together_leave_every_finger_where_it_was(collision):
+    """Each finger's statics see its springs per unit of its own tension (K_i / F): a map with
+    springs 2K and command (2 F_left, 2 F_right) has every finger configuration of the map
+    with K and (F_left, F_right), bit for bit (the factor 2 is exact), and twice its energy,
+    for unequal commands (each finger its own tension)."""
+    design, part = Design(2.0, 1.6, 0.2, 0.14, 0.8), Part(0.4, 0.4)
+    maps = []
+    for scale in (1.0, 2.0):
+        effects = Effects(joint_springs=True, spring_k1=0.01 * scale, spring_k2=0.004 * scale,
+                          finger_collision=collision)
+        maps.append(compute_map(design, part, Command(0.6 * scale, 1.4 * scale),
+                                grid=Grid(h=0.1), effects=effects))
+    one, two = (m.fields for m in maps)
+    for name in ("finger_mode", "theta1", "theta2", "k1", "k2", "point_class"):
+        assert np.array_equal(one[name], two[name], equal_nan=True), name
+    assert np.array_equal(2.0 * one["energy"], two["energy"], equal_nan=True)
+    # the springs do act here: without them some finger ends elsewhere
+    plain = compute_map(design, part, Command(0.6, 1.4), grid=Grid(h=0.1),
+                        effects=Effects(finger_collision=collision)).fields
+    assert not np.array_equal(one["theta1"], plain["theta1"], equal_nan=True)

@@ -103,19 +103,13 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
 def _summarize_shared(cells, widths, steps, ncols, nys, h, command, limits, solver, blocks,
                       out, want, manip) -> None:
     """kernels.field.summarize_cells over every cell, ranges of cells on several threads
-    (threads.over_ranges), each with its own memo of meetings (finger_collision)."""
-    n_w = widths.size
+    (threads.over_ranges)."""
 
     def cells_in_range(first, last):
-        if blocks.finger_collision.on:
-            memo = np.empty((n_w, int(nys[first:last].max()), 2 * int(ncols[first:last].max()) + 1,
-                             5))
-        else:
-            memo = np.empty((0, 0, 0, 5))
         field.summarize_cells(cells, first, last, widths, steps, ncols, nys, float(h),
                               float(command.f_left), float(command.f_right),
                               limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
-                              manip, memo, np.full(2, np.nan))
+                              manip)
 
     over_ranges(cells.shape[0], cells_in_range)
 

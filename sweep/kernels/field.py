@@ -1371,7 +1371,7 @@ def cell_finger_model(cells, c, theta2_min, theta2_max):
 
 @entry(nogil=True)
 def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_right, theta2_min,
-                    theta2_max, solver, effects, out, want, manip, memo, memo_key):
+                    theta2_max, solver, effects, out, want, manip):
     """The maps of cells first .. last - 1 at every width, each cell's from one shared finger
     field, in order on the calling thread, without the GIL (`sweep.compute.threads` runs
     ranges of cells on several threads). One function, not one per cell: each level of the
@@ -1386,13 +1386,17 @@ def summarize_cells(cells, first, last, ws, steps, ncols, nys, h, f_left, f_righ
     forces are computed too and row c of `manip` receives the cell's manipulation metric data
     (MODEL 10), Scenario C's too when `manip` has its low friction (a second shared field at
     that friction, the pairs with a switched finger: collect_pair_forces). With
-    finger_collision, `memo` (n_w, y, x, 5) and `memo_key` (l1, l2 of the cell that filled it)
-    are this call's memo of meetings (records.SettledFingers), filled while the next cell has
-    the same links, cleared when the links change (empty arrays without it)."""
+    finger_collision, this call's memo of meetings (records.SettledFingers: (n_w, y, x, 5), one
+    map per width, and the l1, l2 of the cell that filled it) is filled while the next cell
+    has the same links and cleared when the links change."""
     manipulation = wants_manipulation(manip)
     scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
     no_forces = no_force_arrays()
+    memo = np.empty((0, 0, 0, 5))
+    if collision and last > first:   # as large as the largest map of these cells
+        memo = np.empty((ws.shape[0], nys[first:last].max(), 2 * ncols[first:last].max() + 1, 5))
+    memo_key = np.full(2, np.nan)
     scratch = np.empty(SCRATCH_ANGLES)
     # Scenario C's low-friction field depends on the cell without its mu (the cells of one
     # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
