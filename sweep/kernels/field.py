@@ -866,9 +866,9 @@ def point_forces(j, i, finger_l, finger_r, fingers, forces):
 @inner
 def fingers_touch(fingers, j, i, finger):
     """finger_collision stopped one of the point's fingers on the other (model-notes D17)."""
-    return (rests_on_other_finger(fingers.mode[0, j, i], fingers.t1[0, j, i],
+    return (rests_on_other_finger(np.int64(fingers.mode[0, j, i]), fingers.t1[0, j, i],
                                   fingers.t2[0, j, i], finger)
-            or rests_on_other_finger(fingers.mode[1, j, i], fingers.t1[1, j, i],
+            or rests_on_other_finger(np.int64(fingers.mode[1, j, i]), fingers.t1[1, j, i],
                                      fingers.t2[1, j, i], finger))
 
 
