@@ -642,7 +642,8 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
         out = tmp_path / f"o{k}.h5"
         proc = subprocess.Popen([str(SWEEP), "run", str(lib.files["config"]), "--out", str(out),
                                  "--no-progress"], stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True, env=_clean_env())
+                                stderr=subprocess.PIPE, text=True, env=_clean_env(),
+                                preexec_fn=_sigint_as_from_a_terminal)
         time.sleep(rng.uniform(0.0, 1.5) ** 2)   # dense early: the short start-up phases
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=120)
@@ -718,6 +719,15 @@ def test_a_refusal_in_a_real_process_is_one_line_on_stderr_and_exit_2(tmp_path):
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert "h must be a positive number" in proc.stderr and not list(tmp_path.iterdir())
+
+
+def _sigint_as_from_a_terminal() -> None:
+    """SIGINT at its default in the child, as a command typed at a terminal has it: a test run
+    started in the background (`make test &`, nohup) passes SIGINT on as ignored, and a program
+    that ignores it runs to its end (every case of the Ctrl-C spray then "finished")."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _clean_env() -> dict:
