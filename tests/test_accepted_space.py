@@ -17,8 +17,8 @@ D13 allows) and forces. At every feasible grid point of every map:
   the energy at a point (to the resolution of docs/stability.md's `mu = 1e6` row); contacts on
   the disc and `k2 = l1 - k1` in two-phalanx contact.
 
-Examples: ACCEPTED_EXAMPLES (default 25, about 20 s with compiled kernels);
-SWEEP_LONG_PROPERTIES=1 runs the long profile (1,000 random examples).
+Examples: ACCEPTED_EXAMPLES (default 12, about 10 s with compiled kernels); `make test-long`
+(SWEEP_LONG_PROPERTIES=1, tests/profiles.py) runs the long profile (1,000 random examples).
 """
 from __future__ import annotations
 
@@ -53,7 +53,7 @@ from sweep.model import (
 )
 
 LONG = os.environ.get("SWEEP_LONG_PROPERTIES", "") not in ("", "0")
-EXAMPLES = 1000 if LONG else int(os.environ.get("ACCEPTED_EXAMPLES", "25"))
+EXAMPLES = 1000 if LONG else int(os.environ.get("ACCEPTED_EXAMPLES", "12"))
 #: Smallest reconfig_step drawn: a path of 1e-4 rad steps makes one map's finger field cost
 #: seconds, which the long profile pays; the bounded one (make test, CI's 10 minutes) stops at
 #: 1e-3, still ten times finer than any config of the project.

@@ -16,6 +16,9 @@ Three issues this comparison found in the first version of D15 and of the kernel
 that pulls; D15 now calls that "lost") and the two grid-point ties
 `test_tip_path_meeting_both_stops_at_once_is_decided_by_tolerance`,
 `test_frictionless_tip_pinch_centre_on_the_mouth_is_not_contained`.
+
+Random table designs compared on whole maps: 6 in `make test`, 12 in `make test-long`
+(SWEEP_LONG_PROPERTIES=1, tests/profiles.py).
 """
 from __future__ import annotations
 
@@ -28,6 +31,7 @@ from hypothesis import strategies as st
 
 import naive
 import naive_tip
+from profiles import LONG_PROPERTIES
 from naive_tip import PROXIMAL_TIP, TIP_ONLY, finger_holds, naive_tip_finger, naive_tip_map
 from strategies import paper_table_designs
 from sweep.model import (DISTAL_ONLY, END_TIP_PREHENSION, PROXIMAL_ONLY, REACHED, SLIPPED,
@@ -574,7 +578,7 @@ table_designs = paper_table_designs(mu=st.sampled_from([0.0, 0.1, 0.4, 1.0]))
 
 
 @needs_kernel
-@settings(max_examples=12)
+@settings(max_examples=12 if LONG_PROPERTIES else 6)
 @given(table_designs)
 def test_kernel_map_matches_reference_random_designs(design):
     ref = naive_tip_map(*design, h=0.25)
