@@ -134,20 +134,20 @@ def _variables(path):
 
 
 @pytest.fixture(scope="module")
-def whole_store(tmp_path_factory):
-    """(config, its store run on one machine): the whole test config in the long profile, with
-    r2 = 0.14 alone in make test (the module's docstring)."""
+def whole_store(tmp_path_factory, request):
+    """(config, its store run on one machine): the whole test config in the long profile (the
+    session's store, conftest.py), with r2 = 0.14 alone in make test (the module's docstring)."""
     from click.testing import CliRunner
 
     from sweep.cli import main
 
+    if LONG_ORACLES:
+        return CONFIG, request.getfixturevalue("manipulation_store")
     root = tmp_path_factory.mktemp("whole")
-    config = CONFIG
-    if not LONG_ORACLES:
-        raw = yaml.safe_load(CONFIG.read_text())
-        raw["designs"]["r2"] = [0.14]
-        config = root / "manipulation-r2.yaml"
-        config.write_text(yaml.safe_dump(raw))
+    raw = yaml.safe_load(CONFIG.read_text())
+    raw["designs"]["r2"] = [0.14]
+    config = root / "manipulation-r2.yaml"
+    config.write_text(yaml.safe_dump(raw))
     out = root / "m.h5"
     res = CliRunner().invoke(main, ["run", str(config), "--out", str(out), "--no-progress"])
     assert res.exit_code == 0, res.output
