@@ -18,8 +18,9 @@ with no point where a finger touches the part says so in a warning line), or in 
 line that names the input, with nothing written or changed; never a traceback
 (`fuzz_cli.check_outcome`).
 
-Profiles: `make test` runs a bounded, derandomised profile (FUZZ_EXAMPLES per test, under a
-minute in all with compiled kernels). `SWEEP_LONG_FUZZ=1` runs the long one: random examples,
+Profiles: `make test` runs a bounded, derandomised profile (BOUNDED examples per test, about
+half a minute in all with compiled kernels). `SWEEP_LONG_FUZZ=1` (`make test-long`,
+tests/profiles.py) runs the long one: random examples,
 SWEEP_LONG_FUZZ_CASES in all (default 23,000: commands with few path parameters exhaust their
 cases early, and issue P13 asks for 20,000 run), shared across the tests in proportion to their
 weights; the count of cases run is printed at the end (docs/sweeps.md, "Fuzz campaign").
@@ -55,7 +56,8 @@ LONG_CASES = int(os.environ.get("SWEEP_LONG_FUZZ_CASES", "23000"))
 COMMANDS = fz.commands(main)
 #: Relative weight of each test in the long profile (cases = LONG_CASES * weight / total).
 WEIGHTS = {"paths": 8, "options": 4, "map": 6, "config_load": 8, "config_cli": 3}
-BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 150, "config_cli": 4}
+#: Examples per test in make test (derandomised); make test-long runs the long profile.
+BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 60, "config_cli": 4}
 
 
 def profile(test: str, commands: int = 1):
