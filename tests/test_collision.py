@@ -3,7 +3,11 @@ closing paths with a shared progress p = t1 + (t2 - theta2_min) and stop where t
 a finger whose path ends first is the other's stop.
 
 Cases worked by hand, a plain-Python reference of the rule (own segment geometry), and the
-map-level promise: no caged point has crossed fingers."""
+map-level promise: no caged point has crossed fingers.
+
+The plain-Python scan of a tip-path finger's stop (D29) checks a fixed random sample of each
+map's points in `make test`, every point in `make test-long` (SWEEP_LONG_PROPERTIES=1,
+tests/profiles.py)."""
 import math
 import os
 
