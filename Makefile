@@ -4,7 +4,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: install run friction map test lint test-slurm bench paper clean
+.PHONY: install run friction map test test-long lint test-slurm bench paper clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -39,8 +39,19 @@ map: $(STAMP)
 	$(VENV)/bin/sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 \
 		--out results/map.h5 --plot results/map.png --overwrite
 
+# The test suite at its bounded size: every kind of check (oracle comparisons with the slow
+# references of tests/naive*.py, Hypothesis properties, fuzz, faults and kill-and-resume, golden
+# files, the recipe), a few minutes on 2 cores.
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+# The same suite with every long profile on (tests/profiles.py): Hypothesis properties with their
+# large example counts, the fuzz campaign's 23,000 random cases, the end-to-end oracle
+# comparisons at full size and the recipe's toy effect compiled. Not in CI (.ci/run): about an
+# hour on 2 cores (README, "Tests").
+test-long: $(STAMP)
+	SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_LONG_ORACLES=1 SWEEP_LONG_RECIPE=1 \
+		SWEEP_LONG_COMPILE=1 $(PY) -m pytest -q
 
 # pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), and the layers
 # that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.

@@ -1,4 +1,12 @@
-"""Test configuration: one deterministic Hypothesis profile for the whole suite."""
+"""Test configuration: one deterministic Hypothesis profile for the whole suite, the kernels
+compiled once per session, and what several modules share (session scope).
+
+The suite's two sizes, `make test` and `make test-long`, are tests/profiles.py's switches."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
 from hypothesis import HealthCheck, settings
 
 settings.register_profile(
@@ -10,8 +18,48 @@ settings.register_profile(
 )
 settings.load_profile("sweep")
 
+DATA = Path(__file__).parent / "data"
+#: Modules whose tests compute nothing (`make lint` runs test_layers.py alone): a session of
+#: only these does not compile the kernels.
+COMPUTE_FREE = {"test_layers.py"}
+
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
     """Lines tests leave for the summary (the fuzz campaign's count of cases)."""
     for line in getattr(config, "sweep_summary_lines", []):
         terminalreporter.write_line(line)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels(request):
+    """Every kernel of the sweep compiled (or loaded) once, before the first test, the way a
+    command does it (`sweep.compute.warm.ensure_compiled`: on an empty cache the maps' kernels
+    here and the manipulation metric's in a second process at the same time, saying so in one
+    line). Tests then load them from the cache; the few kernels only tests call (reference
+    searches, one position's outcome, the dense hull reduction's add and merge) compile when a
+    test first calls them."""
+    if all(Path(str(item.fspath)).name in COMPUTE_FREE for item in request.session.items):
+        return
+    from sweep.compute import warm
+
+    if warm.is_compiled():
+        return
+    reporter = request.config.pluginmanager.get_plugin("terminalreporter")
+    warm.ensure_compiled(say=(lambda line: reporter.write_line(f"\n{line}"))
+                         if reporter is not None else None)
+
+
+@pytest.fixture(scope="session")
+def manipulation_store(tmp_path_factory) -> Path:
+    """tests/data/manipulation.yaml run once on one machine (`sweep run`), for the modules that
+    read its store (test_report, test_merge_stream, test_manipulation's long profile). Read it,
+    or take a copy to write beside it."""
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    out = tmp_path_factory.mktemp("manipulation-store") / "tiny.h5"
+    res = CliRunner().invoke(main, ["run", str(DATA / "manipulation.yaml"), "--out", str(out),
+                                    "--no-progress"])
+    assert res.exit_code == 0, res.output
+    return out

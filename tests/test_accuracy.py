@@ -1,5 +1,9 @@
 """`sweep accuracy`: the sample rule, the ranking metrics against plain-Python references, and
-the command on configs/small.yaml (outputs, recommendation rule, resume, input errors)."""
+the command on configs/small.yaml (outputs, recommendation rule, resume, input errors).
+
+The command's study runs on a sample of 2 Halton cells and each part's best cell in `make test`;
+`make test-long` (SWEEP_LONG_ORACLES=1, tests/profiles.py) runs it on the default sample, every
+cell of the config (about twice the time)."""
 import csv
 import itertools
 from pathlib import Path
@@ -12,8 +16,12 @@ from sweep.runs import accuracy as acc
 from sweep.cli import main
 from sweep.config.parse import load_scene
 
+from profiles import LONG_ORACLES
+
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "configs" / "small.yaml"
+#: The command's sample: the default (every cell of the small config) in the long profile.
+SAMPLE = [] if LONG_ORACLES else ["--sample", "2"]
 
 
 def test_halton_is_the_van_der_corput_sequence():
@@ -71,6 +79,10 @@ def test_sample_holds_every_parts_best_and_is_deterministic():
         best_cell = np.unravel_index(np.argmax(areas[..., k]), areas.shape[:2])[0]
         assert best_cell in s1
     assert len(s1) <= 3 + areas.shape[-1]
+    # a sample at least as large as the config's cells is every cell (the command's default
+    # sample on this config)
+    for n in (cells.shape[0], acc.DEFAULT_SAMPLE):
+        assert np.array_equal(acc.sample_cells(scene, n, areas), np.arange(cells.shape[0]))
 
 
 def test_recommendation_is_the_cheapest_agreeing_setting():
@@ -97,7 +109,7 @@ def test_accuracy_command_on_the_small_config(tmp_path):
     config = tmp_path / "small-refine.yaml"  # the small config with its refinement stage on
     config.write_text(SMALL.read_text() + "refine: {levels: 2, bound: 0.5, min_contenders: 2}\n")
     res = runner.invoke(main, ["accuracy", str(config), "--out", str(out), "--no-progress",
-                               "--map", witness])
+                               "--map", witness, *SAMPLE])
     assert res.exit_code == 0, res.output
     for name in ("accuracy.md", "accuracy.csv", "accuracy.png", "convergence.png",
                  "convergence.csv"):
@@ -149,7 +161,7 @@ def test_accuracy_command_on_the_small_config(tmp_path):
     work = sorted(out.glob("work-*/*.npz"))
     stamps = [p.stat().st_mtime_ns for p in work]
     res = runner.invoke(main, ["accuracy", str(config), "--out", str(out), "--no-progress",
-                               "--map", witness])
+                               "--map", witness, *SAMPLE])
     assert res.exit_code == 0, res.output
     assert [p.stat().st_mtime_ns for p in work] == stamps
     assert f"--map {witness}" in text
@@ -159,7 +171,7 @@ def test_accuracy_command_on_the_small_config(tmp_path):
     coarser.write_text(config.read_text().replace("reconfig_step: 0.01", "reconfig_step: 0.05"))
     assert load_scene(coarser).accuracy.reconfig_step == 0.05
     res = runner.invoke(main, ["accuracy", str(coarser), "--out", str(out), "--no-progress",
-                               "--map", witness])
+                               "--map", witness, *SAMPLE])
     assert res.exit_code == 0, res.output
     assert len(list(out.glob("work-*"))) == 1
     reference = [p for p in work for h in (scene.h / 8, scene.h / 4)

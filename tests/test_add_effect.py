@@ -8,9 +8,12 @@ exactly the files the recipe names (at most 4 outside tests/), then runs `sweep 
 copy: the toy's map has the plain map's bytes in every field, its summary field and attribute,
 and its parameter is checked at the edge like the others (one line, exit code 2).
 
-The copy's kernels compile once (a minute on two cores); they are cached under the user's
-kernel cache, keyed by the edited sources, and the copy lives in a folder keyed by them too (so
-the next run finds its cache).
+`make test` runs the copy with its kernels interpreted (NUMBA_DISABLE_JIT=1, a private cache
+folder: a few seconds), which checks every step of the recipe but not that Numba compiles the
+toy's block. `make test-long` (SWEEP_LONG_RECIPE=1, tests/profiles.py) runs the same checks on
+the copy compiled: its own kernel set (about 80 s on two cores), cached under the user's kernel
+cache, keyed by the edited sources; the copy lives in a folder keyed by them too (so the next
+run finds its cache).
 """
 from __future__ import annotations
 
@@ -26,6 +29,8 @@ from pathlib import Path
 
 import h5py
 import pytest
+
+from profiles import LONG_RECIPE
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -94,8 +99,9 @@ def test_the_recipe_names_the_files_the_toy_effect_edits():
 
 
 @pytest.fixture(scope="module")
-def toy_tree():
-    """A copy of the package with the toy effect added by the recipe's edits."""
+def toy_tree(tmp_path_factory):
+    """A copy of the package with the toy effect added by the recipe's edits, and the
+    environment its commands run in (compiled or interpreted: the module's docstring)."""
     edited = {}
     for name, edits in TOY.items():
         text = (ROOT / name).read_text()
@@ -114,11 +120,15 @@ def toy_tree():
         for name, text in edited.items():
             (tree / name).write_text(text)
         (tree / "done").write_text("")
-    return tree
-
-
-def _sweep(tree: Path, *args) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(tree)}
+    if not LONG_RECIPE:   # interpreted, and nothing left in the user's kernel cache
+        env.update(NUMBA_DISABLE_JIT="1",
+                   NUMBA_CACHE_DIR=str(tmp_path_factory.mktemp("toy-kernel-cache")))
+    return tree, env
+
+
+def _sweep(toy, *args) -> subprocess.CompletedProcess:
+    tree, env = toy
     return subprocess.run([sys.executable, "-m", "sweep", *args], capture_output=True, text=True,
                           env=env, cwd=tree, timeout=900)
 

@@ -174,7 +174,8 @@ def test_contact_forces_balance_the_joint_torques(mode_args):
     """MODEL 5.1: T2 = sum over distal contacts (c - B) x f, T1 = sum over contacts (c - J) x f."""
     mode, t1, t2, k1, k2 = mode_args
     l1, r1, r2, mu, F = 2.0, 0.2, 0.02, 0.4, 1.3
-    st = finger_statics(FingerState(mode, t1, t2, k1, k2, False),
+    # the mode as the kernels hold it (int8): the production path's compiled signature
+    st = finger_statics(FingerState(np.int8(mode), t1, t2, k1, k2, False),
                         finger_model(l1, 0.0, r1, r2, 0.4, mu, TH2MIN, TH2MAX))
     assert st.determined
     f1, f2, mu2 = F * st.proximal_normal, F * st.distal_normal, st.distal_multiplier  # linear in F

@@ -3,7 +3,11 @@ closing paths with a shared progress p = t1 + (t2 - theta2_min) and stop where t
 a finger whose path ends first is the other's stop.
 
 Cases worked by hand, a plain-Python reference of the rule (own segment geometry), and the
-map-level promise: no caged point has crossed fingers."""
+map-level promise: no caged point has crossed fingers.
+
+The plain-Python scan of a tip-path finger's stop (D29) checks a fixed random sample of each
+map's points in `make test`, every point in `make test-long` (SWEEP_LONG_PROPERTIES=1,
+tests/profiles.py)."""
 import math
 import os
 
@@ -519,8 +523,9 @@ def test_a_finger_that_took_the_tip_path_stops_on_its_own_path(case):
         paths = []
         for s in range(2):
             dx = (-x if s == 0 else x) - 0.5 * w
-            on, t1s, t2s, _ = tip_path_start(dx, y, mode[s, j, i], *settled[s], finger, solver,
-                                             blocks)
+            # the mode as an int64, as the kernels pass it (their compiled signature)
+            on, t1s, t2s, _ = tip_path_start(dx, y, int(mode[s, j, i]), *settled[s], finger,
+                                             solver, blocks)
             # where the tip path began, by the independent reference (tests/naive_tip.py)
             start = []
             naive_tip.naive_tip_finger(dx, y, l1, l2, 0.2, 0.14, r, mu, th, finger.theta2_max,

@@ -18,9 +18,10 @@ from pathlib import Path
 import pytest
 import yaml
 
+from profiles import LONG_COMPILE
+
 ROOT = Path(__file__).resolve().parents[1]
-LONG = os.environ.get("SWEEP_LONG_COMPILE", "") not in ("", "0")
-pytestmark = pytest.mark.skipif(not LONG, reason="long profile: SWEEP_LONG_COMPILE=1")
+pytestmark = pytest.mark.skipif(not LONG_COMPILE, reason="long profile: SWEEP_LONG_COMPILE=1")
 
 #: Kernels that legitimately have several signatures (their argument dtypes differ by design).
 SEVERAL = {"gather_row": 3}

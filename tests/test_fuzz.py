@@ -18,8 +18,9 @@ with no point where a finger touches the part says so in a warning line), or in 
 line that names the input, with nothing written or changed; never a traceback
 (`fuzz_cli.check_outcome`).
 
-Profiles: `make test` runs a bounded, derandomised profile (FUZZ_EXAMPLES per test, under a
-minute in all with compiled kernels). `SWEEP_LONG_FUZZ=1` runs the long one: random examples,
+Profiles: `make test` runs a bounded, derandomised profile (BOUNDED examples per test, about
+half a minute in all with compiled kernels). `SWEEP_LONG_FUZZ=1` (`make test-long`,
+tests/profiles.py) runs the long one: random examples,
 SWEEP_LONG_FUZZ_CASES in all (default 23,000: commands with few path parameters exhaust their
 cases early, and issue P13 asks for 20,000 run), shared across the tests in proportion to their
 weights; the count of cases run is printed at the end (docs/sweeps.md, "Fuzz campaign").
@@ -56,7 +57,8 @@ COMMANDS = fz.commands(main)
 #: Relative weight of each test in the long profile (cases = LONG_CASES * weight / total).
 WEIGHTS = {"paths": 8, "options": 4, "map": 6, "config_load": 8, "config_cli": 3,
            "wrong_kinds": 2}
-BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 150, "config_cli": 4,
+#: Examples per test in make test (derandomised); make test-long runs the long profile.
+BOUNDED = {"paths": 6, "options": 3, "map": 40, "config_load": 60, "config_cli": 4,
            "wrong_kinds": 2}
 
 
@@ -686,7 +688,8 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
         out = tmp_path / f"o{k}.h5"
         proc = subprocess.Popen([str(SWEEP), "run", str(lib.files["config"]), "--out", str(out),
                                  "--no-progress"], stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True, env=_clean_env())
+                                stderr=subprocess.PIPE, text=True, env=_clean_env(),
+                                preexec_fn=_sigint_as_from_a_terminal)
         time.sleep(rng.uniform(0.0, 1.5) ** 2)   # dense early: the short start-up phases
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=120)
@@ -762,6 +765,15 @@ def test_a_refusal_in_a_real_process_is_one_line_on_stderr_and_exit_2(tmp_path):
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr
     assert "h must be a positive number" in proc.stderr and not list(tmp_path.iterdir())
+
+
+def _sigint_as_from_a_terminal() -> None:
+    """SIGINT at its default in the child, as a command typed at a terminal has it: a test run
+    started in the background (`make test &`, nohup) passes SIGINT on as ignored, and a program
+    that ignores it runs to its end (every case of the Ctrl-C spray then "finished")."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _clean_env() -> dict:

@@ -1,16 +1,21 @@
 """Exact hull, Ferrari-Canny radius and the mergeable per-pose reduction (MODEL 10).
 
 References: scipy.spatial.ConvexHull (Qhull; its facet equations give the origin's distance to
-each edge), exact rational arithmetic (fractions.Fraction) and hand-built shapes."""
+each edge), exact rational arithmetic (fractions.Fraction) and hand-built shapes.
+
+The property that random splits merge to the one-pass reduction draws 15 examples in `make
+test`, 60 in `make test-long` (SWEEP_LONG_PROPERTIES=1, tests/profiles.py)."""
 from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given, settings, strategies as st
 from scipy.spatial import ConvexHull, QhullError
 
 from sweep.kernels.hull import convex_hull, inscribed_radius, orient
 from sweep.compute.manipulation import PAPER_SEARCH_RANGES, HullReduction
+
+from profiles import LONG_PROPERTIES
 
 REL = 1e-12   # MODEL 10's tolerances, spelled out here from the text
 
@@ -323,6 +328,7 @@ def test_no_positive_pose_gives_undefined_usage():
     assert red.values()[0] == 0.0
 
 
+@settings(max_examples=60 if LONG_PROPERTIES else 15)
 @given(st.integers(0, 2**32 - 1), st.lists(st.integers(1, 19), max_size=4, unique=True),
        st.randoms(use_true_random=False))
 def test_merge_of_random_splits_equals_one_pass_bitwise(seed, cuts, rnd):

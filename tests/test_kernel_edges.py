@@ -160,7 +160,7 @@ def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined
     from sweep.model import TWO_PHALANX
 
     finger = finger_model(1.2, 0.8, 0.12, 0.1, 0.4, 0.4, TH2MIN, TH2MAX)
-    st = finger_statics(FingerState(TWO_PHALANX, 1.0, t2, 0.5, 0.7, False), finger)
+    st = finger_statics(FingerState(np.int8(TWO_PHALANX), 1.0, t2, 0.5, 0.7, False), finger)
     assert st.determined == (not on_stop)
 
 

@@ -1,14 +1,23 @@
 """The manipulation metric computed inside the sweep (MODEL 10) against the slow, independent
-reference of tests/naive_manipulation.py (naive finger configurations, LP statics, Qhull)."""
+reference of tests/naive_manipulation.py (naive finger configurations, LP statics, Qhull).
+
+The sweep's store is checked against the reference on tests/data/manipulation.yaml with r2 at
+0.14 alone in `make test` (24 geometries: the same Scenario B value and positive poses as the
+whole config, about half the reference's cost; r2's usage undefined), and on the whole config
+(48 geometries) in `make test-long` (SWEEP_LONG_ORACLES=1, tests/profiles.py)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+import yaml
+
 from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, naive_metric,
                                 world_lattice)
 from sweep.compute.batch import manipulation_cells, summarize_cells
 from sweep.model import Accuracy, Command, Effects, Limits
+
+from profiles import LONG_ORACLES
 
 H = 0.2
 PART = (0.4, 0.4)
@@ -125,20 +134,30 @@ def _variables(path):
 
 
 @pytest.fixture(scope="module")
-def whole_store(tmp_path_factory):
+def whole_store(tmp_path_factory, request):
+    """(config, its store run on one machine): the whole test config in the long profile (the
+    session's store, conftest.py), with r2 = 0.14 alone in make test (the module's docstring)."""
     from click.testing import CliRunner
 
     from sweep.cli import main
 
-    out = tmp_path_factory.mktemp("whole") / "m.h5"
-    res = CliRunner().invoke(main, ["run", str(CONFIG), "--out", str(out), "--no-progress"])
+    if LONG_ORACLES:
+        return CONFIG, request.getfixturevalue("manipulation_store")
+    root = tmp_path_factory.mktemp("whole")
+    raw = yaml.safe_load(CONFIG.read_text())
+    raw["designs"]["r2"] = [0.14]
+    config = root / "manipulation-r2.yaml"
+    config.write_text(yaml.safe_dump(raw))
+    out = root / "m.h5"
+    res = CliRunner().invoke(main, ["run", str(config), "--out", str(out), "--no-progress"])
     assert res.exit_code == 0, res.output
-    return out
+    return config, out
 
 
 def test_store_holds_the_metric_and_matches_the_reference(whole_store):
     import xarray as xr
 
+    config, whole_store = whole_store
     with xr.open_dataset(whole_store, engine="h5netcdf") as ds:
         assert ds["manipulation_b"].dims == ("r", "mu")
         assert ds["parameter_usage"].dims == ("r", "mu", "parameter")
@@ -147,11 +166,15 @@ def test_store_holds_the_metric_and_matches_the_reference(whole_store):
         pose_value = ds["manipulation_b_pose_value"].values[0, 0]
         usage = ds["parameter_usage"].values[0, 0]
         assert ds.attrs["manipulation_scenario_a_top_k"] == 2
-    geometries = [(w, l1, l2, r1, r2) for l1 in (0.4, 1.4) for l2 in (0.8, 1.2)
-                  for r1 in (0.12, 0.16) for r2 in (0.10, 0.14) for w in (0.0, 0.8, 1.2)]
-    # search ranges of this config (upper - lower): w, l1, l2, r1, r2
-    ref = naive_metric(geometries, PART, H, SCENARIO_B_COMMANDS,
-                       search_ranges=(1.2, 1.0, 0.4, 0.04, 0.04))
+    designs = yaml.safe_load(config.read_text())["designs"]
+    geometries = [(w, l1, l2, r1, r2) for l1 in designs["l1"] for l2 in designs["l2"]
+                  for r1 in designs["r1"] for r2 in designs["r2"] for w in designs["w"]]
+    assert len(geometries) == (48 if LONG_ORACLES else 24)
+    # search ranges of this config (upper - lower): w, l1, l2, r1, r2; the whole config's are
+    # (1.2, 1.0, 0.4, 0.04, 0.04); a range of 0 leaves that parameter's usage undefined (NaN)
+    ranges = tuple(max(designs[k]) - min(designs[k]) for k in ("w", "l1", "l2", "r1", "r2"))
+    with np.errstate(invalid="ignore"):     # 0 / 0: the usage of a single-valued parameter
+        ref = naive_metric(geometries, PART, H, SCENARIO_B_COMMANDS, search_ranges=ranges)
     assert ref["total"] > 0
     assert b == pytest.approx(ref["total"], rel=1e-9)
     n = (pose_value.shape[1] - ref["values"].shape[1]) // 2  # the store pads to the widest part
@@ -165,9 +188,10 @@ def test_chunked_run_merges_to_the_same_bytes(whole_store, tmp_path):
 
     from sweep.cli import main
 
+    config, whole_store = whole_store
     runner = CliRunner()
     for chunk in range(3):
-        res = runner.invoke(main, ["run", str(CONFIG), "--chunk", str(chunk), "--chunks", "3",
+        res = runner.invoke(main, ["run", str(config), "--chunk", str(chunk), "--chunks", "3",
                                    "--out", str(tmp_path / "run"), "--no-progress"])
         assert res.exit_code == 0, res.output
     res = runner.invoke(main, ["merge", str(tmp_path / "run"), "--out", str(tmp_path / "m.h5")])

@@ -8,6 +8,7 @@ from __future__ import annotations
 import errno
 import io
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from unittest import mock
@@ -105,12 +106,12 @@ def test_groups_are_read_one_block_at_a_time_in_item_order():
 # The real sweep with the manipulation metric: chunks that split groups, tiny batches
 # ---------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
-    """tests/data/manipulation.yaml (4 geometry groups of 4 items) run on one machine and in 6
-    chunks (so that chunks split groups)."""
+def runs(tmp_path_factory, manipulation_store):
+    """tests/data/manipulation.yaml (4 geometry groups of 4 items) run on one machine (the
+    session's store, conftest.py) and in 6 chunks (so that chunks split groups)."""
     root = tmp_path_factory.mktemp("stream")
     scene = load_scene(CONFIG)
-    runner.run_single(scene, root / "whole.h5", progress=False)
+    shutil.copy2(manipulation_store, root / "whole.h5")
     for k in range(6):
         runner.run_chunk(scene, root / "run", k, 6, progress=False)
     return scene, root

@@ -1,6 +1,7 @@
 """The slow reference of the manipulation metric, checked on itself where answers are analytic,
 and the hull reduction fed with its forces (MODEL 10, 5.1, 5.6)."""
 import math
+from functools import lru_cache
 
 import numpy as np
 import pytest
@@ -45,6 +46,13 @@ def sample_fingers():
 SAMPLE = sample_fingers()
 
 
+@lru_cache(maxsize=None)
+def sample_forces():
+    """finger_forces of every SAMPLE finger at unit tension (an LP each), solved once for the
+    tests that read them."""
+    return [finger_forces(res, l1, r1, r2, mu) for res, l1, r1, r2, mu in SAMPLE]
+
+
 def test_sample_covers_every_contact_mode():
     modes = {res["mode"] for res, *_ in SAMPLE}
     assert modes == {PROXIMAL_ONLY, TWO_PHALANX, DISTAL_ONLY}
@@ -52,8 +60,7 @@ def test_sample_covers_every_contact_mode():
 
 def test_finger_forces_satisfy_the_joint_equations_and_the_cones():
     checked = 0
-    for res, l1, r1, r2, mu in SAMPLE:
-        out = finger_forces(res, l1, r1, r2, mu)
+    for (res, l1, r1, r2, mu), out in zip(SAMPLE, sample_forces()):
         if not out["determined"]:
             continue
         if res["mode"] == DISTAL_ONLY and res["k2"] == 0.0:
@@ -82,8 +89,7 @@ def test_finger_forces_satisfy_the_joint_equations_and_the_cones():
 
 
 def test_forces_scale_linearly_with_tension():
-    for res, l1, r1, r2, mu in SAMPLE[::5]:
-        one = finger_forces(res, l1, r1, r2, mu, tension=1.0)
+    for (res, l1, r1, r2, mu), one in zip(SAMPLE[::5], sample_forces()[::5]):   # tension 1
         if not one["determined"]:
             continue
         three = finger_forces(res, l1, r1, r2, mu, tension=3.0)
@@ -94,8 +100,7 @@ def test_analytic_forces_of_tangent_contacts():
     """MODEL 5.2 from first principles: the distal normal force balances the distal joint alone,
     F2 = r2 / k2; a proximal-only finger has F1 = r1 / k1 and needs no friction."""
     seen = set()
-    for res, l1, r1, r2, mu in SAMPLE:
-        out = finger_forces(res, l1, r1, r2, mu)
+    for (res, _l1, r1, r2, _mu), out in zip(SAMPLE, sample_forces()):
         if not out["determined"]:
             continue
         normals = [f @ (rot90(np.array([math.cos(a), math.sin(a)])))

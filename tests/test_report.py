@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -33,11 +34,11 @@ def g(v) -> str:
 
 
 @pytest.fixture(scope="module")
-def made(tmp_path_factory):
+def made(tmp_path_factory, manipulation_store):
+    """The store of tests/data/manipulation.yaml (the session's, conftest.py; a copy, written
+    beside here) and its report."""
     root = tmp_path_factory.mktemp("report")
-    store = root / "tiny.h5"
-    res = invoke("run", DATA / "manipulation.yaml", "--out", store, "--no-progress")
-    assert res.exit_code == 0, res.output
+    store = Path(shutil.copy2(manipulation_store, root / "tiny.h5"))
     out = root / "rep"
     res = invoke("report", store, "--out", out)
     assert res.exit_code == 0, res.output

@@ -8,7 +8,8 @@ linear scaling with tension, more friction never lowering the energy); and conti
 finger under a 1e-9 move of the part.
 
 Examples per entry: STABILITY_EXAMPLES (default 10, about 15 s in all on 2 cores with warm
-kernels). The long profile: SWEEP_LONG_PROPERTIES=1 (200 random examples per entry).
+kernels). The long profile: SWEEP_LONG_PROPERTIES=1 (200 random examples per entry; `make
+test-long` runs it, tests/profiles.py).
 """
 import math
 import os
