@@ -26,7 +26,8 @@ from collections import Counter
 import numpy as np
 
 from sweep.kernels.finger import solve_finger
-from sweep.kernels.field import finger_effects, point_outcome
+from sweep.kernels.finger import finger_effects
+from sweep.kernels.outcome import point_outcome
 from sweep.kernels.records import Hand
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map

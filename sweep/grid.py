@@ -103,15 +103,28 @@ def available_memory() -> int:
         return 8 << 30
 
 
+#: Share of the available memory a computation may plan on (the rest: the system, Python, the
+#: other jobs of a node).
+MEMORY_SHARE = 0.8
+
+
+def check_memory_need(need: int, what: str, advice: str) -> None:
+    """Refuse (ModelInputError, before anything is computed or written) a computation that would
+    need more than MEMORY_SHARE of this machine's available memory: one map, a run, a merge."""
+    available = available_memory()
+    if need > MEMORY_SHARE * available:
+        raise ModelInputError(f"{what} needs about {need / 2**30:.1f} GiB, about "
+                              f"{available / 2**30:.1f} GiB free: {advice}")
+
+
 def check_memory(n_points: int, what: str = "the grid",
                  bytes_per_point: int = BYTES_PER_POINT) -> None:
     """Refuse a grid whose working arrays would not fit in memory."""
-    need = n_points * bytes_per_point
-    available = available_memory()
-    if n_points > MAX_POINTS_DEFAULT or need > 0.5 * available:
-        raise ModelInputError(
-            f"{what} has {n_points:,} points and needs about {need / 2**30:.1f} GiB; "
-            f"that does not fit (about {available / 2**30:.1f} GiB free): raise h or narrow it")
+    if n_points > MAX_POINTS_DEFAULT:
+        raise ModelInputError(f"{what} has {n_points:,} points, more than "
+                              f"{MAX_POINTS_DEFAULT:,}: raise h or narrow it")
+    check_memory_need(n_points * bytes_per_point, f"{what} ({n_points:,} points)",
+                      "raise h or narrow it")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -142,7 +155,7 @@ def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, 
 
 def cell_bytes(ny: int, nx_max: int, n_shared: int, n_widths: int,
                manipulation: bool = False, scenario_c: bool = False) -> int:
-    """Bytes one thread holds while it computes one cell (kernels/field.py summarize_cell): the
+    """Bytes one thread holds while it computes one cell (kernels/many_maps.py summarize_cells): the
     shared finger field, one width's map at a time (both fingers gathered, the outcomes, the
     trajectory stack) and, with the manipulation metric, the shared field's link vectors and
     statics (7 floats a point), Scenario A's per-pose force buffers (a count and two floats per

@@ -218,8 +218,8 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
     if not (math.isfinite(design.w) and design.w >= 0):
         raise ModelInputError(f"w must be >= 0, got {design.w!r}")
     positive("r", part.r)
-    # Lengths far apart in scale (a denormal l2 against l1 = 1: 5e-324, found by the fuzz
-    # campaign) overflow or vanish in the kernels' products: one scale within LENGTH_SPAN.
+    # Lengths far apart in scale (a denormal l2 = 5e-324 against l1 = 1) overflow or vanish in
+    # the kernels' products: one scale within LENGTH_SPAN.
     lengths = {"l1": design.l1, "l2": design.l2, "r": part.r, "r1": design.r1,
                "r2": design.r2, **({"w": design.w} if design.w > 0 else {})}
     for name, value in lengths.items():

@@ -121,8 +121,8 @@ def make_parent(path: Path) -> None:
 def check_output_file(path: str | os.PathLike, overwrite: bool = True) -> None:
     """What `claim_output` refuses for a file, checked without creating anything: a command
     with several outputs checks them all first, so that a refusal of one does not leave the
-    folders of another behind (found by the fuzz campaign: `sweep map --out NEW/x.h5 --plot
-    FILE/x.png`)."""
+    folders of another behind (`sweep map --out NEW/x.h5 --plot FILE/x.png` must not leave NEW/
+    when FILE is a file)."""
     path = Path(path)
     with os_errors_named(path, "cannot write"):
         _refuse_file_in_the_way(path)

@@ -11,7 +11,7 @@ import contextlib
 import signal
 import sys
 
-EXIT_INTERRUPTED = 130
+from . import EXIT_INTERRUPTED
 
 
 class _Terminated(KeyboardInterrupt):
@@ -26,11 +26,11 @@ def _unraisable(unraisable) -> None:
     delivered again instead of printed.
 
     Python cannot raise an exception there: it prints "Exception ignored in: <function ...>"
-    with the KeyboardInterrupt's traceback and goes on as if Ctrl-C had not been pressed
-    (found by the long fuzz profile's Ctrl-C spray). A short-lived thread delivers the same
-    signal to the main thread again (`_thread.interrupt_main`); it lands after this hook has
-    returned, in the code that runs next, whose handling makes it one line and exit 130. From
-    this hook itself the signal's handler would run before the hook returns, and raise in it."""
+    with the KeyboardInterrupt's traceback and goes on as if Ctrl-C had not been pressed. A
+    short-lived thread delivers the same signal to the main thread again
+    (`_thread.interrupt_main`); it lands after this hook has returned, in the code that runs
+    next, whose handling makes it one line and exit 130. From this hook itself the signal's
+    handler would run before the hook returns, and raise in it."""
     if not (isinstance(unraisable.exc_type, type)
             and issubclass(unraisable.exc_type, KeyboardInterrupt)):
         sys.__unraisablehook__(unraisable)

@@ -61,7 +61,7 @@ TOY = {
          '    ("toy", lambda effects, accuracy, tension: Toy(True, float(effects.toy_gain)),\n'
          '     Toy(False, 0.0)),\n', "before-last-line"),
     ],
-    "sweep/kernels/field.py": [
+    "sweep/kernels/one_map.py": [
         # 3. kernels: a small function taking the block, called where the physics needs it
         ('S_COLLISION_CHANGED = SUMMARY_INDEX["n_collision_changed"]\n',
          'S_TOY = SUMMARY_INDEX["n_toy"]\n', "after"),

@@ -7,7 +7,8 @@ import pytest
 from kernel_calls import closing as closing_contact
 from kernel_calls import finger_model
 from kernel_calls import solve as solve_finger
-from sweep.kernels.finger import DISTAL_ON_LOWER_STOP, finger_energy, finger_statics
+from sweep.kernels.finger_statics import finger_energy, finger_statics
+from sweep.kernels.finger import DISTAL_ON_LOWER_STOP
 from sweep.kernels.records import FingerState
 from sweep.model import DISTAL_ONLY, FREE, PROXIMAL_ONLY, SLIPPED, TWO_PHALANX, VERTEX
 
@@ -205,7 +206,7 @@ def test_contact_forces_balance_the_joint_torques(mode_args):
 
 
 # --- tie rules of model-notes D3, D5 ---------------------------------------------------------
-from sweep.kernels.finger import vertex_entry  # noqa: E402
+from sweep.kernels.finger_geometry import vertex_entry  # noqa: E402
 from sweep.kernels.hand import fingers_cross, mouth_opening, part_contained  # noqa: E402
 
 
@@ -214,7 +215,7 @@ def test_shared_base_at_zero_palm_width_is_not_a_crossing():
     left = (0.0, 0.0, -0.5, 1.0, -0.5, 2.0)
     right = (0.0, 0.0, 0.5, 1.0, 0.5, 2.0)
     assert not fingers_cross(left, right)
-    assert mouth_opening(left, right) == pytest.approx(1.0)
+    assert mouth_opening(left, right, fingers_cross(left, right)) == pytest.approx(1.0)
     # ... but overlapping proximal links are (B_L on the right proximal link)
     right_overlap = (0.0, 0.0, -1.0, 2.0, 0.0, 3.0)
     assert fingers_cross((0.0, 0.0, -0.5, 1.0, -0.5, 2.0), right_overlap)
@@ -225,7 +226,7 @@ def test_fingers_meeting_at_a_vertex_intersect():
     left = (-0.2, 0.0, -1.8, 0.0, -1.8, 1.6)
     right = (0.2, 0.0, -1.0, 1.0, -2.6, -1.0)  # B_R=(-1,1), T_R=(-2.6,-1): through (-1.8, 0)
     assert fingers_cross(left, right)
-    assert mouth_opening(left, right) == 0.0
+    assert mouth_opening(left, right, fingers_cross(left, right)) == 0.0
 
 
 def test_centre_on_the_mouth_is_not_contained():

@@ -552,7 +552,7 @@ def path_case(draw):
 
 @given(path_case())
 def test_reconfiguration_stops_where_the_reference_stops(c):
-    """The kernel's path (kernels/finger.py: reconfigure, follow_path) against the reference's
+    """The kernel's path (finger.reconfigure, finger_paths.follow_path) against the reference's
     (naive.reconfigure, plain bisection): the same kind of stop (stuck or on a stop, or slipped
     off the tip), at the same t1 to the bracket's width (both report the bracket end where the
     event holds, D4), and the reported state is 3.2 at that t1 and satisfies its stop. A

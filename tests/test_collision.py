@@ -17,7 +17,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sweep.kernels.hand import meeting_progress, resolve_collisions, stopped_finger
+from sweep.kernels.meeting import meeting_progress, stopped_finger
+from sweep.kernels.meeting_search import resolve_collisions
 from sweep.kernels.records import FingerCollision, new_finger_arrays, no_settled_fingers
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
@@ -179,7 +180,7 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
     unit of progress); the answer must be that of testing every node. The every-node search is
     written here from paths_cross_at, on random closing paths of random designs and widths
     (w = 0 included: shared base)."""
-    from sweep.kernels.hand import paths_cross_at
+    from sweep.kernels.meeting import paths_cross_at
 
     def every_node(t1l, t2l, t1r, t2r, finger, w):
         th = finger.theta2_min
@@ -219,18 +220,18 @@ def test_meeting_progress_skips_only_nodes_where_the_fingers_cannot_meet():
 
 # --- the map's way (resolve_collisions) against the reference search, bit for bit -----------
 # resolve_collisions finds the meeting from the symmetric closing and the first contact in
-# closed form, and replays the reference's bisection (kernels/hand.py); the reference,
+# closed form, and replays the reference's bisection (kernels/meeting_search.py); the reference,
 # resolve_collisions_reference, steps and bisects at every crossed point. Same bits asked.
 def _settled_fields(design, part, h):
     """The settled (collision-free) finger fields of a map, as the sweep gathers them."""
-    from sweep.kernels import field
+    from sweep.kernels import many_maps
     from sweep.grid import grid_index_bounds, palm_half_width_steps
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
     _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
     step = palm_half_width_steps(design.w, h)
-    shared, m_lo, ys = field.shared_finger_field(finger, solver, blocks, np.array([step]),
+    shared, m_lo, ys = many_maps.shared_finger_field(finger, solver, blocks, np.array([step]),
                                                  np.array([i1]), j1 + 1, h)
-    _, fingers = field.gather_fingers(shared, m_lo, step, i1, j1 + 1, h)
+    _, fingers = many_maps.gather_fingers(shared, m_lo, step, i1, j1 + 1, h)
     return finger, ys, fingers
 
 
@@ -247,7 +248,7 @@ def _assert_same_fingers(a, b):
 def test_map_way_gives_the_reference_search_bits(seed):
     """Random designs and parts of the paper table (w = l1 and w = 0 included: a distal joint
     lands on the other finger's base at t1 = pi, the bases coincide), whole maps at h = 0.1."""
-    from sweep.kernels.hand import resolve_collisions_reference
+    from sweep.kernels.meeting import resolve_collisions_reference
     rng = np.random.default_rng(seed)
     n_met = 0
     for k in range(3):
@@ -274,7 +275,7 @@ def test_map_way_gives_the_reference_search_bits_on_any_fingers(l1, l2, w, seed)
     """Settled angles drawn at random (not only those a part makes), each point's fingers
     anywhere in their ranges, modes mixed: the meeting and the stopped fingers are the
     reference's bits."""
-    from sweep.kernels.hand import resolve_collisions_reference
+    from sweep.kernels.meeting import resolve_collisions_reference
     rng = np.random.default_rng(seed)
     finger = finger_record(l1, l2)
     n = 60
@@ -301,9 +302,9 @@ def test_sweep_way_gives_the_reference_search_summaries():
     geometry group) against maps whose fingers the reference resolves: every summary field,
     bit for bit, n_collision_changed included."""
     from sweep.compute.batch import summarize_cells
-    from sweep.kernels import field as cell_kernels
-    from sweep.kernels.hand import resolve_collisions_reference
-    from sweep.kernels.field import N_SUMMARY, S_COLLISION_CHANGED, map_from_fingers
+    from sweep.kernels import many_maps
+    from sweep.kernels.meeting import resolve_collisions_reference
+    from sweep.kernels.one_map import map_from_fingers, N_SUMMARY, S_COLLISION_CHANGED
     from sweep.kernels.records import (NO_EFFECTS, Hand, new_outcome_arrays, no_force_arrays,
                                        no_settled_fingers)
     from sweep.grid import grid_index_bounds, palm_half_width_steps
@@ -328,9 +329,9 @@ def test_sweep_way_gives_the_reference_search_summaries():
             finger, solver, _ = kernel_records(design, part, Limits(), grid8, Effects())
             _, i1, _, j1 = grid_index_bounds(design, part, Grid(h=h))
             step, ny = palm_half_width_steps(w, h), j1 + 1
-            shared, m_lo, ys = cell_kernels.shared_finger_field(
+            shared, m_lo, ys = many_maps.shared_finger_field(
                 finger, solver, NO_EFFECTS, np.array([step]), np.array([i1]), ny, h)
-            xs, fingers = cell_kernels.gather_fingers(shared, m_lo, step, i1, ny, h)
+            xs, fingers = many_maps.gather_fingers(shared, m_lo, step, i1, ny, h)
             n_changed = resolve_collisions_reference(ys, finger, w, fingers, COLLISION)
             outs = new_outcome_arrays(ny, xs.size)
             summary = np.empty(N_SUMMARY)
@@ -347,7 +348,7 @@ def test_sweep_way_gives_the_reference_search_summaries():
 def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, step, tol):
     """bisect_by_comparison runs the reference's bisection on integer mantissas where both
     ends share a binade; the floating-point steps, written here, must give the same bits."""
-    from sweep.kernels.hand import REPLAY_WINDOW, bisect_by_comparison
+    from sweep.kernels.meeting_search import bisect_by_comparison, REPLAY_WINDOW
     lo, hi = (n - 1) * step, n * step
     tau = lo + where * (hi - lo)
     expected = (lo, hi, False)
@@ -372,7 +373,8 @@ def test_replayed_bisection_on_mantissas_is_the_floating_point_one(n, where, ste
 def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
     """collide (one part position, no map: the trajectories' off-grid points) finds the
     reference's meeting and stops the fingers as resolve_collisions_reference would."""
-    from sweep.kernels.hand import collide, settled_fingers_cross
+    from sweep.kernels.meeting import settled_fingers_cross
+    from sweep.kernels.meeting_search import collide
     rng = np.random.default_rng(seed)
     finger = finger_record(l1, l2)
     for _ in range(20):
@@ -599,11 +601,12 @@ def segment_point_distance(a, b, q):
 
 @pytest.mark.parametrize("case", TIP_SCENE_CASES[:2], ids=lambda c: "-".join(map(str, c)))
 def test_grid_points_with_a_tip_path_finger_are_the_one_position_answer(case):
-    """The map resolves its points with a tip-path finger by field.tip_path_collisions, the
+    """The map resolves its points with a tip-path finger by meeting.tip_path_collisions, the
     slides' off-grid positions by point_outcome (collide_on_own_paths): at every grid point
     the two give the same fingers (bit for bit), class and energy (the map sums its energy
     from per-finger fields, in another order: to 1e-12, as at every point)."""
-    from sweep.kernels.field import collide_on_own_paths, point_outcome
+    from sweep.kernels.meeting import collide_on_own_paths
+    from sweep.kernels.outcome import point_outcome
     from sweep.kernels.records import Hand
 
     l1, l2, w, r, mu = case

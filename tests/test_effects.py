@@ -157,7 +157,7 @@ def test_fewer_outputs_give_the_same_bits_for_what_they_keep(full_map, names):
 def test_energy_only_kernels_compute_no_cage_and_no_trajectory():
     # the pipeline itself: with caging off, no containment, L_open, crossing or trajectory is
     # computed (fields keep their "not computed" values), and Lambda is NaN
-    from sweep.kernels.field import finger_rows, map_from_fingers
+    from sweep.kernels.one_map import finger_rows, map_from_fingers
     from sweep.kernels.records import (Hand, new_finger_arrays, new_outcome_arrays,
                                        no_force_arrays, no_settled_fingers)
     from sweep.compute.layout import finger_offsets, kernel_records, map_grid

@@ -260,7 +260,7 @@ def test_lower_stop_rule_matches_the_interval_reference(t2, k2, l1, r1, r2, mu_s
     from kernel_calls import finger_model
     from naive import lower_stop_admissible
 
-    from sweep.kernels.finger import sticks_on_lower_stop
+    from sweep.kernels.finger_statics import sticks_on_lower_stop
     from sweep.kernels.records import NO_EFFECTS
 
     finger = finger_model(l1, 1.0, r1, r2, 0.4, mu_s, -1.5, 1.5)

@@ -8,8 +8,8 @@ from hypothesis import strategies as st
 
 from sweep.compute.batch import SUMMARY_FIELDS, summarize_cells
 from kernel_calls import solve as solve_finger
-from sweep.kernels.finger import finger_energy
-from sweep.kernels.finger import distal_tangency
+from sweep.kernels.finger_statics import finger_energy
+from sweep.kernels.finger_geometry import distal_tangency
 from sweep.compute.maps import compute_map
 from sweep.model import (DISTAL_ONLY, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX, Accuracy,
                          Command, Design, Grid, Limits, Part)

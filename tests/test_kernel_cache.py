@@ -10,7 +10,8 @@ import sweep.kernels as kernels
 
 
 def test_cache_directory_is_keyed_by_the_kernel_sources():
-    from sweep.kernels.field import finger_rows, summarize_cells
+    from sweep.kernels.one_map import finger_rows
+    from sweep.kernels.many_maps import summarize_cells
 
     key = f"kernels-{kernels._kernel_source_digest()}"
     for dispatcher in (finger_rows, summarize_cells):

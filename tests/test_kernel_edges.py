@@ -8,7 +8,7 @@ import pytest
 
 from kernel_calls import closing, solve
 from naive import naive_finger
-from sweep.kernels.field import pose_radius_sum
+from sweep.kernels.many_maps import pose_radius_sum
 from sweep.compute.manipulation import HullReduction
 from sweep.model import DISTAL_ONLY, SLIPPED, VERTEX
 
@@ -62,7 +62,7 @@ def test_distal_tangent_at_b_is_not_a_vertex_strike():
 
 
 # ---------------------------------------------------------------------------------------------
-# finger.py, paths: events tied exactly go to the first in D4's order (stick, distal stop,
+# finger_paths.py: events tied exactly go to the first in D4's order (stick, distal stop,
 # proximal stop, slip); events that start within one step are bracketed to 1e-12 whatever
 # root_tol (D19)
 # ---------------------------------------------------------------------------------------------
@@ -105,7 +105,7 @@ def test_coarse_root_tolerance_keeps_contacts_on_the_link_and_agrees_with_the_re
 
 
 # ---------------------------------------------------------------------------------------------
-# field.py: a pose's value needs three forces, not four (MODEL 10: "0 if fewer than 3 forces")
+# many_maps.py: a pose's value needs three forces, not four (MODEL 10: "0 if fewer than 3 forces")
 # ---------------------------------------------------------------------------------------------
 def test_three_forces_around_the_origin_give_a_positive_value():
     count = np.array([[3]], dtype=np.int64)
@@ -145,7 +145,7 @@ def test_distal_contact_on_the_proximal_stop_sticks_at_zero_torque_balance():
 
 
 # ---------------------------------------------------------------------------------------------
-# finger.py (statics): a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
+# finger_statics.py: a joint within RANGE_TOL of a limit rests on it (MODEL 5.5 inclusive ranges)
 # ---------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("t2, on_stop", [
     (TH2MIN, True), (TH2MIN + 5e-13, True), (TH2MIN + 1e-9, False),
@@ -155,7 +155,7 @@ def test_two_phalanx_forces_with_a_distal_stop_within_the_slack_are_undetermined
     per joint). A two-phalanx finger has 2 contacts: its distal joint within RANGE_TOL = 1e-12 of
     a stop counts as resting on it (a third unknown, the stop torque), 1e-9 away it does not."""
     from kernel_calls import finger_model
-    from sweep.kernels.finger import finger_statics
+    from sweep.kernels.finger_statics import finger_statics
     from sweep.kernels.records import FingerState
     from sweep.model import TWO_PHALANX
 
@@ -178,12 +178,12 @@ def test_a_part_over_the_palm_end_touches_the_palm(w):
 
 
 # ---------------------------------------------------------------------------------------------
-# field.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
+# outcome.py: either finger overlapping the part makes the point infeasible (MODEL 8: |d| >= r for
 # each finger), also in the sliver y in [r - RANGE_TOL, r) that the palm test lets through
 # ---------------------------------------------------------------------------------------------
 def test_a_part_overlapping_either_finger_base_is_infeasible():
     from sweep.kernels.finger import OVERLAP
-    from sweep.kernels.field import classify_point
+    from sweep.kernels.outcome import classify_point
     from sweep.model import INFEASIBLE, REACHED, TWO_PHALANX
 
     w, r = 0.8, 0.4

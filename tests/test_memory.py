@@ -78,7 +78,7 @@ def test_a_merge_that_does_not_fit_is_refused_before_anything_is_written(tmp_pat
         res = CliRunner().invoke(main, ["run", str(cfg), "--out", str(tmp_path / "runs"),
                                         "--chunks", "2", "--chunk", str(k), "--no-progress"])
         assert res.exit_code == 0, res.output
-    monkeypatch.setattr(sweep.runs.rundir, "available_memory", lambda: 1 << 10)
+    monkeypatch.setattr(sweep.grid, "available_memory", lambda: 1 << 10)
     res = CliRunner().invoke(main, ["merge", str(tmp_path / "runs"), "--out",
                                     str(tmp_path / "m.h5")])
     lines = [ln for ln in res.output.splitlines() if ln.strip()]

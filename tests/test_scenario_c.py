@@ -139,7 +139,7 @@ def pair_map_metric(candidate, part, widths, mu_low, effects, h):
 @pytest.mark.parametrize("collision", [False, True], ids=["base", "collision"])
 def test_scenario_c_matches_the_maps_of_each_friction_pair(candidate, part, mu_low, collision):
     """The cell's pairs are their maps' (finger_collision included: the map pipeline resolves
-    the whole map, the cell only the crossed poses it counts, hand.collide)."""
+    the whole map, the cell only the crossed poses it counts, meeting_search.collide)."""
     widths = (0.0, 0.8, 1.6)
     effects = Effects(finger_collision=collision)
     _, c = kernel_metrics(candidate, part, widths, h=0.1, mu_low=mu_low, effects=effects)

@@ -20,11 +20,17 @@ from hypothesis import strategies as st
 from naive import ReferenceGrid
 from strategies import paper_table_designs
 from sweep.compute.maps import compute_map, kernel_records
-from sweep.kernels.hand import collide, collide_near, no_slide_context, slide_context
-from sweep.kernels.field import point_outcome, point_outcome_below
+from sweep.kernels.meeting_search import collide, collide_near, no_slide_context, slide_context
+from sweep.kernels.outcome import point_outcome, point_outcome_below
 from sweep.kernels.records import Hand
-from sweep.kernels.field import (EMPTY_KEY, MEMO_MAX_CAPACITY, MEMO_MIN_CAPACITY,
-                                      memo_for_slide, new_memo, outcome_at)
+from sweep.kernels.trajectories import (
+    EMPTY_KEY,
+    memo_for_slide,
+    MEMO_MAX_CAPACITY,
+    MEMO_MIN_CAPACITY,
+    new_memo,
+    outcome_at,
+)
 from sweep.model import (END_NONE, FREE, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX,
                          Accuracy, Command, Design, Effects, Grid, Limits, Part)
 

@@ -410,10 +410,10 @@ def test_circle_ties_go_to_the_first_direction_from_east():
     exactly equal energy (the directions are exact mirror images, D16). At (0, 2.0) of the
     crease map, h = 0.05, the lowest of the step's search is the pair E / W: the first
     evaluated, E, is kept."""
-    from sweep.kernels.field import point_outcome
+    from sweep.kernels.outcome import point_outcome
     from sweep.kernels.records import Hand
-    from sweep.kernels.field import SLIDE_DIRECTIONS, lowest_on_circle, new_memo
-    from sweep.kernels.hand import no_slide_context
+    from sweep.kernels.trajectories import lowest_on_circle, new_memo, SLIDE_DIRECTIONS
+    from sweep.kernels.meeting_search import no_slide_context
     from sweep.compute.layout import kernel_records
     from sweep.model import Accuracy, Design, Effects, Limits, Part
 
@@ -431,18 +431,23 @@ def test_circle_ties_go_to_the_first_direction_from_east():
 # ---------------------------------------------------------------------------------------------
 # Where each slide stops, not only where its trajectory ends
 # ---------------------------------------------------------------------------------------------
-SLIDE_KINDS = {0: "rejoined", 1: "ejection", 2: "stalled"}   # kernels/field.py SLIDE_*
+SLIDE_KINDS = {0: "rejoined", 1: "ejection", 2: "stalled"}   # kernels/trajectories.py SLIDE_*
 
 
 def kernel_slide_stops(m):
     """{(j, i): (outcome, x, y)} of every grid stall of a kernel map that slides: the kernel's
-    own slide (kernels/field.py: slide_successor, called as trajectory_ends calls it, with the
+    own slide (trajectories.slide_successor, called as trajectory_ends calls it, with the
     map's memo and collision context) from that grid point, and the last position it records:
     where the part rejoined the grid, left P_j or the window, or stopped."""
     from sweep.compute.layout import hand_record, kernel_records
-    from sweep.kernels.field import (downhill_neighbour, max_slide_points, memo_for_slide,
-                                     new_memo, slide_successor)
-    from sweep.kernels.hand import slide_context
+    from sweep.kernels.trajectories import (
+        downhill_neighbour,
+        max_slide_points,
+        memo_for_slide,
+        new_memo,
+        slide_successor,
+    )
+    from sweep.kernels.meeting_search import slide_context
 
     f = m.fields
     energy = np.asarray(f["energy"], dtype=np.float64)

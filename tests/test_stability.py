@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from kernel_calls import solve as solve_finger
 from sweep.compute.batch import cell_map_fields, summarize_cells
-from sweep.kernels.finger import finger_energy
+from sweep.kernels.finger_statics import finger_energy
 from sweep.compute.maps import compute_map
 from sweep.grid import palm_half_width_steps
 from sweep.model import (

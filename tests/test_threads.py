@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from hypothesis import given, strategies as st
 
-from sweep.compute.batch import numba_threads, summarize_cells
+from sweep.compute.batch import summarize_cells
+from sweep.compute.threads import numba_threads
 from sweep.compute.maps import compute_map
 from sweep.compute.threads import over_ranges, split
 from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part

@@ -8,7 +8,7 @@ import pytest
 import naive
 from sweep.compute.batch import cell_map_fields, summarize_cells
 from sweep.kernels.records import Hand, new_outcome_arrays
-from sweep.kernels.field import trajectory_ends
+from sweep.kernels.trajectories import trajectory_ends
 from sweep.kernels.streamline import streamline_ends
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map

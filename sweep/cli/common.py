@@ -23,7 +23,7 @@ from pathlib import Path
 
 import click
 
-EXIT_INTERRUPTED = 130
+from .. import EXIT_INTERRUPTED
 
 
 class UserError(click.ClickException):

@@ -13,7 +13,7 @@ import click
 from ..model import (  # plain Python: cheap
     EFFECT_NAMES, EFFECTS, TRAJECTORY_ALIASES, TRAJECTORY_METHODS, Accuracy,
 )
-from .common import MAP_OUT, PICTURE_OUT, SweepCommand, UserError, real_path
+from .common import MAP_OUT, PICTURE_OUT, THREADS, WAIT, SweepCommand, UserError, real_path
 
 
 def effect_parameter_options(command):
@@ -63,8 +63,7 @@ def effect_parameter_options(command):
               help="Trajectory method (MODEL 8, docs/model-notes.md D16): sliding follows "
                    "creases of the energy; grid8 is the paper-like 8-neighbour descent "
                    "('discrete' is its old name); continuous, streamlines.")
-@click.option("--threads", type=int, default=None,
-              help="Numba threads (default: SLURM_CPUS_PER_TASK or all cores).")
+@THREADS
 @click.option("--out", type=MAP_OUT, required=True,
               help="Map file to write (HDF5; opens with xarray, engine='h5netcdf').")
 @click.option("--plot", "plot_path", type=PICTURE_OUT, default=None,
@@ -81,8 +80,7 @@ def effect_parameter_options(command):
                    f"frictionless base model.")
 @effect_parameter_options
 @click.option("--overwrite", is_flag=True, help="Replace existing --out / --plot files.")
-@click.option("--wait", is_flag=True,
-              help="If another process is writing the same --out, wait for it.")
+@WAIT
 def map_command(l1, l2, r1, r2, w, r, mu, mu_left, mu_right, h, xlim, ylim, f_left, f_right,
                 theta2_min, theta2_max, reconfig_step, root_tol, trajectory, threads, out,
                 plot_path, forces, outputs_spec, effects_spec, overwrite, wait, **effect_params):

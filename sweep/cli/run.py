@@ -203,9 +203,7 @@ def refine(store, levels, bound, min_contenders, threads, progress, restart, for
 @click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 @click.option("--refine/--no-refine", "do_refine", default=True, show_default=True,
               help="When the config has `refine:`, refine the merged store (as `sweep refine`).")
-@click.option("--threads", type=int, default=None,
-              help="Numba threads of the refinement (default: SLURM_CPUS_PER_TASK, else every "
-                   "core).")
+@THREADS
 @WAIT
 def merge(directory, out, overwrite, do_refine, threads, wait):
     """Merge the shards of a chunked run directory into one results store; then, when the

@@ -88,7 +88,7 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
         account=account, extra=extra, n_maps=scene.n_maps, config_hash=scene.config_hash)
     sbatch = None
     if submit:  # everything checked before anything is written
-        results = real_path(results or rundir.root / "results.h5")
+        results = real_path(results or rundir.results)
         if results.exists():
             raise UserError(f"--results: {results} exists; the merge job would refuse "
                             "to replace it: move it away or choose another --results")

@@ -6,40 +6,25 @@ relative to its base, so all widths and both fingers are shifts/mirrors of one f
 """
 from __future__ import annotations
 
-import contextlib
 
 import numba
 import numpy as np
 
-from ..grid import (CELL_COLUMNS, ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
+from ..grid import (ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
 from ..config.scene import Scene, grid_points
-from ..kernels import field
+from ..kernels import many_maps, one_map
 from ..kernels.records import (ManipulationOut, RIGHT, LEFT, new_force_arrays,
                                new_outcome_arrays, new_finger_arrays, no_force_arrays,
                                no_manipulation, no_scenario_c, no_settled_fingers)
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
 from ..schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from .manipulation import ManipulationChunk, PartReduction
-from .layout import (finger_offsets, hand_record, kernel_records, map_fields, map_grid,
-                     summary_attrs)
+from .layout import (cells_as_kernels_read, contact_friction, finger_offsets, hand_record,
+                     kernel_records, map_fields, map_grid, summary_attrs)
 from .threads import over_ranges
 
 
-@contextlib.contextmanager
-def numba_threads(n: int | None):
-    """Set Numba's thread count for the block (None: leave Numba's default, every core), restore
-    it after. Per-thread buffers in the kernels are sized by `numba.get_num_threads()`."""
-    old = numba.get_num_threads()
-    if n is not None:
-        if not 1 <= n <= numba.config.NUMBA_NUM_THREADS:
-            raise ModelInputError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
-                           f"(this machine's cores), got {n}")
-        numba.set_num_threads(n)
-    try:
-        yield numba.get_num_threads()
-    finally:
-        numba.set_num_threads(old)
 
 
 def _cell_design_part(cell, w: float) -> tuple[Design, Part]:
@@ -57,11 +42,8 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     Each map uses the default whole-reach grid of MODEL 8 at spacing `h`. Results are bitwise
     identical to `compute_map(...).attrs` for the same map.
     """
-    cells = np.ascontiguousarray(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
+    cells = cells_as_kernels_read(cells, effects)
     widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
-    if not effects.friction:
-        cells = cells.copy()
-        cells[:, 5] = 0.0
     out = np.zeros((cells.shape[0], widths.size, len(SUMMARY_FIELDS)))
     if cells.shape[0] == 0 or widths.size == 0:
         return out
@@ -76,8 +58,9 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
                   for c in cells]
         ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
         nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
-        _summarize_shared(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h, command,
-                          limits, solver, blocks, out, want, no_manipulation())
+        _summarize_on_shared_fields(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
+                                    command, limits, solver, blocks, out, want,
+                                    no_manipulation())
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
@@ -90,26 +73,26 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
             hand = hand_record(w, command, h, finger)
             ny, nx = g.shape
             fingers = new_finger_arrays(2, ny, nx)
-            field.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
-            field.finger_rows(0, ny, dx_right, g.y, finger, solver, blocks, fingers, RIGHT)
-            field.map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers,
-                                   new_outcome_arrays(ny, nx), no_force_arrays(),
-                                   np.empty(ny * nx, dtype=np.int64), out[c, k],
-                                   field.STABLE_POINTS, field.ALL_OUTPUTS, field.ALL_OUTPUTS,
-                                   no_settled_fingers())
+            one_map.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
+            one_map.finger_rows(0, ny, dx_right, g.y, finger, solver, blocks, fingers, RIGHT)
+            one_map.map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers,
+                                     new_outcome_arrays(ny, nx), no_force_arrays(),
+                                     np.empty(ny * nx, dtype=np.int64), out[c, k],
+                                     one_map.STABLE_POINTS, one_map.ALL_OUTPUTS,
+                                     one_map.ALL_OUTPUTS, no_settled_fingers())
     return out
 
 
-def _summarize_shared(cells, widths, steps, ncols, nys, h, command, limits, solver, blocks,
-                      out, want, manip) -> None:
-    """kernels.field.summarize_cells over every cell, ranges of cells on several threads
+def _summarize_on_shared_fields(cells, widths, palm_steps, ncols, nys, h, command, limits,
+                                solver, blocks, out, want, manip) -> None:
+    """kernels.many_maps.summarize_cells over every cell, ranges of cells on several threads
     (threads.over_ranges)."""
 
     def cells_in_range(first, last):
-        field.summarize_cells(cells, first, last, widths, steps, ncols, nys, float(h),
-                              float(command.f_left), float(command.f_right),
-                              limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
-                              manip)
+        many_maps.summarize_cells(cells, first, last, widths, palm_steps, ncols, nys, float(h),
+                                  float(command.f_left), float(command.f_right),
+                                  limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
+                                  manip)
 
     over_ranges(cells.shape[0], cells_in_range)
 
@@ -128,17 +111,18 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     _, ncol, _, j1 = grid_index_bounds(design, part, Grid(h=h))
     ny = j1 + 1
     steps = np.array([step], dtype=np.int64)
-    shared, m_lo, ys = field.shared_finger_field(finger, solver, blocks, steps,
-                                                 np.array([ncol], dtype=np.int64), ny, float(h))
-    xs, fingers = field.gather_fingers(shared, m_lo, step, ncol, ny, float(h))
+    shared, m_lo, ys = many_maps.shared_finger_field(finger, solver, blocks, steps,
+                                                     np.array([ncol], dtype=np.int64), ny,
+                                                     float(h))
+    xs, fingers = many_maps.gather_fingers(shared, m_lo, step, ncol, ny, float(h))
     outs = new_outcome_arrays(ny, xs.shape[0])
     force_arrays = new_force_arrays(ny, xs.shape[0]) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
-    field.map_from_fingers(xs, ys, finger, solver,
-                           hand_record(w, command, h, finger),
-                           blocks, fingers, outs, force_arrays,
-                           np.empty(ny * xs.shape[0], dtype=np.int64), summary, field.EVERY_POINT,
-                           field.ALL_OUTPUTS, field.ALL_OUTPUTS, no_settled_fingers())
+    one_map.map_from_fingers(xs, ys, finger, solver, hand_record(w, command, h, finger),
+                             blocks, fingers, outs, force_arrays,
+                             np.empty(ny * xs.shape[0], dtype=np.int64), summary,
+                             one_map.EVERY_POINT, one_map.ALL_OUTPUTS, one_map.ALL_OUTPUTS,
+                             no_settled_fingers())
     return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
         summary_attrs(summary)
 
@@ -171,12 +155,9 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     Scenario C's metric per cell (`chunk.c_metric`). With `pose_values`, the chunk also carries
     the value of every pose of Scenario A (`chunk.a_pose_value[c]`, on the grid of the cell's
     widest map) and of C (`chunk.c_pose_value`)."""
-    cells = np.ascontiguousarray(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
+    cells = cells_as_kernels_read(cells, effects)
     widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
     items = np.asarray(items, dtype=np.int64)
-    if not effects.friction:
-        cells = cells.copy()
-        cells[:, 5] = 0.0
     n = cells.shape[0]
     steps = [palm_half_width_steps(w, h) for w in widths]
     if any(s is None for s in steps):
@@ -189,8 +170,8 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
     nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
     lattice_ncol = np.ascontiguousarray(lattice_ncol, dtype=np.int64)
-    if mu_low is not None and not effects.friction:
-        mu_low = 0.0   # every contact frictionless, as the cells' mu
+    if mu_low is not None:
+        mu_low = contact_friction(mu_low, effects)
 
     def run(rows, capacity):
         out = np.zeros((rows.size, widths.size, len(SUMMARY_FIELDS)))
@@ -206,10 +187,10 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
             np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
             lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64),
             np.zeros(shape), *scenario_c)
-        _summarize_shared(np.ascontiguousarray(cells[rows]), widths,
-                          np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h, command,
-                          limits, solver, blocks, out,
-                          np.ones((rows.size, widths.size), dtype=np.bool_), manip)
+        _summarize_on_shared_fields(np.ascontiguousarray(cells[rows]), widths,
+                                    np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
+                                    command, limits, solver, blocks, out,
+                                    np.ones((rows.size, widths.size), dtype=np.bool_), manip)
         return out, manip
 
     out, manip = run(np.arange(n), capacity)

@@ -13,14 +13,15 @@ import numpy as np
 
 from ..kernels.records import (
     EffectBlocks, FingerArrays, FingerModel, ForceArrays, Hand, OutcomeArrays, SolverSettings,
-    effect_blocks,
+    cell_finger, effect_blocks,
 )
-from ..grid import BYTES_PER_POINT, check_memory, grid_index_bounds, palm_half_width_steps
+from ..grid import (BYTES_PER_POINT, CELL_COLUMNS, check_memory, grid_index_bounds,
+                    palm_half_width_steps)
 from ..model import (
     DEFAULT_OUTPUTS, STREAMLINE_STEP, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Grid,
     Limits, Outputs, Part,
 )
-from ..schema import COUNT_FIELDS, POINT, SUMMARY_FIELDS, summary_field_on
+from ..schema import COUNT_FIELDS, POINT, SUMMARY, summary_field_on
 
 
 @dataclass
@@ -83,6 +84,20 @@ class EnergyMap:
     mu_right: float | None = None
 
 
+def contact_friction(mu, effects: Effects):
+    """The contacts' friction coefficient (MODEL 5): the part's `mu`, or 0 where the scene
+    switches the friction effect off (a float or an array of them)."""
+    return mu if effects.friction else mu * 0.0
+
+
+def cells_as_kernels_read(cells, effects: Effects) -> np.ndarray:
+    """`cells` (n, 6) float64, columns grid.CELL_COLUMNS, with each cell's contact friction."""
+    cells = np.array(cells, dtype=np.float64).reshape(-1, len(CELL_COLUMNS))
+    mu = CELL_COLUMNS.index("mu")
+    cells[:, mu] = contact_friction(cells[:, mu], effects)
+    return cells
+
+
 def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accuracy,
                    effects: Effects, tension: float = 1.0
                    ) -> tuple[FingerModel, SolverSettings, EffectBlocks]:
@@ -91,9 +106,9 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
     compiled kernels serve every scene; the blocks are built by kernels/records.py's BLOCKS).
     `tension` is the tendon tension of the finger the blocks are for (springs act per unit
     tension)."""
-    mu_s = part.mu if effects.friction else 0.0
-    finger = FingerModel(float(design.l1), float(design.l2), float(design.r1), float(design.r2),
-                         float(part.r), float(mu_s), limits.theta2_min, limits.theta2_max)
+    cell = cells_as_kernels_read([[design.l1, design.l2, design.r1, design.r2, part.r, part.mu]],
+                                 effects)
+    finger = cell_finger(cell, 0, float(limits.theta2_min), float(limits.theta2_max))
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol),
                             TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP))
     return finger, solver, effect_blocks(effects, accuracy, tension)
@@ -114,10 +129,6 @@ def side_finger_model(finger: FingerModel, mu: float) -> FingerModel:
     return finger._replace(mu_s=float(mu))
 
 
-# Per-point fields that exist only with an output (the rest come with the energy).
-CAGING_FIELDS = ("end_state", "contained", "l_open", "caging_score", "end_index")
-
-
 def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
                forces: ForceArrays | None, outputs: Outputs = Outputs()) -> dict[str, np.ndarray]:
     """Kernel arrays -> the named per-point fields of sweep.schema (those of the outputs on)."""
@@ -126,11 +137,9 @@ def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
                   caging_score=outs.caging_score, finger_mode=fingers.mode, theta1=fingers.t1,
                   theta2=fingers.t2, k1=fingers.k1, k2=fingers.k2,
                   tip_overlap=fingers.tip_overlap, end_index=outs.end_index)
-    if not outputs.caging:
-        for name in CAGING_FIELDS:
+    for name in list(fields):  # the fields of outputs that are off (sweep.schema: Field.output)
+        if not getattr(outputs, POINT[name].output):
             del fields[name]
-    if not outputs.equilibrium:
-        del fields["equilibrium"]
     if forces is not None:
         fields.update(proximal_normal_force=forces.proximal_normal,
                       distal_normal_force=forces.distal_normal,
@@ -142,23 +151,13 @@ def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
     return fields
 
 
-# Summary fields that exist only with an output (trajectory and caging counts, equilibrium count).
-CAGING_SUMMARY = ("Lambda", "caging_area", "n_caged", "n_tip_prehension", "n_ejection",
-                  "n_stalled", "n_caged_points", "n_caged_crossed")
-
-
 def summary_attrs(summary: np.ndarray, outputs: Outputs = Outputs(),
                   effects: Effects = Effects()) -> dict:
     """The kernels' summary row as named attributes (floats and counts, sweep.schema.SUMMARY),
     without the ones whose output or effect is off."""
     on = effects.names_on()
-    attrs = {name: (int(v) if name in COUNT_FIELDS else float(v))
-             for name, v in zip(SUMMARY_FIELDS, summary) if summary_field_on(name, on)}
-    if not outputs.caging:
-        for name in CAGING_SUMMARY:
-            attrs.pop(name, None)
-    if not outputs.equilibrium:
-        attrs.pop("n_equilibrium", None)
-    return attrs
+    return {f.name: (int(v) if f.name in COUNT_FIELDS else float(v))
+            for f, v in zip(SUMMARY, summary)
+            if summary_field_on(f.name, on) and getattr(outputs, f.output)}
 
 

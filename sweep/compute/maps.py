@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from ..kernels.field import EVERY_POINT, finger_rows, map_from_fingers
+from ..kernels.one_map import EVERY_POINT, finger_rows, map_from_fingers
 from ..kernels.records import (LEFT, RIGHT, new_finger_arrays, new_force_arrays,
                                new_outcome_arrays, no_force_arrays, no_settled_fingers)
 from ..grid import map_bytes_per_point

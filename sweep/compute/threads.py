@@ -1,8 +1,8 @@
 """The compute layer's parallel loops: ranges of rows or cells on several threads.
 
-The kernels' drivers (`kernels/field.py`: `finger_rows`, `summarize_cells`) release the GIL and
+The kernels' drivers (`one_map.finger_rows`, `many_maps.summarize_cells`) release the GIL and
 work on a range `first .. last - 1`; `over_ranges` runs consecutive ranges on Numba's thread
-count (`numba.get_num_threads()`, set by `batch.numba_threads`), each thread taking the next
+count (`numba.get_num_threads()`, set by `numba_threads`), each thread taking the next
 range as it finishes one (ranges differ in cost: the part's reach, trajectories). Each range
 writes only its own rows, so the results do not depend on the split or the thread count.
 
@@ -13,13 +13,38 @@ compilation of the kernels (docs/performance.md).
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 from typing import Callable
 
 import numba
 
+from ..model import ModelInputError
+
 #: Ranges per thread: enough for the threads to finish together, few enough that a range's
 #: set-up (a shared finger field, a memo of meetings) is amortised.
 RANGES_PER_THREAD = 4
+
+
+def check_threads(n: int) -> None:
+    """Refuse a thread count this machine cannot run (ModelInputError: a user's --threads or
+    SLURM_CPUS_PER_TASK)."""
+    if not 1 <= n <= numba.config.NUMBA_NUM_THREADS:
+        raise ModelInputError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
+                              f"(this machine's cores), got {n}")
+
+
+@contextlib.contextmanager
+def numba_threads(n: int | None):
+    """Set Numba's thread count for the block (None: leave Numba's default, every core), restore
+    it after. The drivers' ranges run on `numba.get_num_threads()` threads (over_ranges)."""
+    old = numba.get_num_threads()
+    if n is not None:
+        check_threads(n)
+        numba.set_num_threads(n)
+    try:
+        yield numba.get_num_threads()
+    finally:
+        numba.set_num_threads(old)
 
 
 def split(n: int, parts: int) -> list[tuple[int, int]]:

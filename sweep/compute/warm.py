@@ -39,9 +39,13 @@ def compile_maps() -> None:
     """Every kernel of maps and sweeps: one map (with and without forces), the sweep's cells
     (summaries, and with the manipulation metric), one map the sweep's way, the pictures'
     trajectories."""
-    from ..kernels.field import (downhill_neighbour, max_slide_points, new_memo,
-                                 slide_successor)
-    from ..kernels.hand import no_slide_context
+    from ..kernels.trajectories import (
+        downhill_neighbour,
+        max_slide_points,
+        new_memo,
+        slide_successor,
+    )
+    from ..kernels.meeting_search import no_slide_context
     from ..kernels.records import Hand
     from ..kernels.streamline import max_streamline_steps, streamline_walk
     from .batch import cell_map_fields, manipulation_cells, summarize_cells

@@ -1,15 +1,22 @@
 """Numba kernels. Only this package holds `@njit` code; the layers above call it.
 
-finger     one finger's mechanics: contact geometry and vertex strikes (MODEL 3, 4), statics in
-           joint-torque space (MODEL 5.1-5.3, tip_contact), the edge and tip paths of a finger
-           that cannot hold, the closing sequence, energy and forces (MODEL 4-6)
-hand       two fingers and the part: part equilibrium, containment, opening (MODEL 7, 8), and
-           finger_collision, where the two closing fingers first meet (MODEL 9, D14)
-records    the parameter and result records every kernel takes and returns
-field      grids of points: one position anywhere, trajectories (MODEL 8), one map's finger
-           fields, outcomes and summary, many maps at once from shared finger fields
-streamline the continuous trajectories (MODEL 8, D12)
-hull       exact 2-D convex hulls of forces per pose, mergeable (manipulation metric, MODEL 10)
+In reading order (each module imports only those above it):
+
+records          the parameter and result records every kernel takes and returns
+finger_geometry  one finger's contact geometry and vertex strikes, closed form (MODEL 3, 4)
+finger_statics   its statics in joint-torque space (MODEL 5.1-5.3), energy and forces (MODEL 6)
+finger_paths     the edge and tip paths of a finger whose first contact cannot hold (MODEL 5.3)
+finger           the configuration a finger reaches: closing sequence, then settling (MODEL 4, 5)
+hand             the part between the fingers: equilibrium, containment, opening (MODEL 7, 8)
+meeting          finger_collision's rule and reference search, own paths (MODEL 9, D14, D29)
+meeting_roots    where a vertex first meets a segment of the other finger, closed form (D14)
+meeting_search   finger_collision over a map: the reference's bits, found faster (D14)
+outcome          one part position anywhere: class and energy (MODEL 4-8)
+streamline       the continuous trajectories (MODEL 8, D12)
+trajectories     from every point downhill to where the part stops (MODEL 8, D16)
+one_map          one map: finger fields, outcomes, trajectories, summary
+hull             exact 2-D convex hulls of forces per pose, mergeable (MODEL 10)
+many_maps        many maps from one shared finger field, forces per pose (MODEL 10)
 
 Compiled kernels are cached on disk (`cache=True`). Numba checks only the file of the function it
 loads, so a kernel that inlines a changed function from another file would load stale code: the
@@ -50,6 +57,9 @@ _CACHE_DIRECTORY = _cache_root() / f"kernels-{_kernel_source_digest()}"
 _user_cache_dir = numba.config.CACHE_DIR
 numba.config.CACHE_DIR = str(_CACHE_DIRECTORY)
 try:
-    from . import field, finger, hand, hull, records, streamline  # noqa: E402,F401
+    from . import (  # noqa: E402,F401
+        finger, finger_geometry, finger_paths, finger_statics, hand, hull, many_maps, meeting,
+        meeting_roots, meeting_search, one_map, outcome, records, streamline, trajectories,
+    )
 finally:
     numba.config.CACHE_DIR = _user_cache_dir

@@ -123,7 +123,7 @@ def with_joint_springs(effects, springs):
 
 
 class SettledFingers(NamedTuple):
-    """What the sweep hands `hand.resolve_collisions` about a map's settled fingers, from
+    """What the sweep hands `meeting_search.resolve_collisions` about a map's settled fingers, from
     its cell's shared finger field: the link vectors of every shared point (`links`,
     (4, y, offset): l1 cos t1, l1 sin t1, l2 cos phi, l2 sin phi), where the left and right
     finger of world column i read offset start + stride * i, and `memo` (y, x, 5): per point
@@ -165,12 +165,27 @@ class Hand(NamedTuple):
     mu_right: float
 
 
+@entry
+def cell_finger(cells, c, theta2_min, theta2_max):
+    """The FingerModel of row c of `cells` (n, 6): its columns l1 l2 r1 r2 r mu
+    (grid.CELL_COLUMNS) are FingerModel's first six fields in their order, mu the contacts'
+    friction (compute.layout.cells_as_kernels_read). The one place a FingerModel is made from
+    parameters: the sweep's cells here, one map's through compute.layout.kernel_records."""
+    return FingerModel(cells[c, 0], cells[c, 1], cells[c, 2], cells[c, 3], cells[c, 4],
+                       cells[c, 5], theta2_min, theta2_max)
+
+
 @inner
 def side_finger(finger, hand, side):
     """The FingerModel of one finger of the hand (side LEFT or RIGHT): `finger` with its
     contacts' friction, hand.mu_left or hand.mu_right (MODEL 10, Scenario C). A finger solves
     alone (MODEL 4-5), so its friction is all that differs between the two."""
-    mu = hand.mu_left if side == LEFT else hand.mu_right
+    return with_friction(finger, hand.mu_left if side == LEFT else hand.mu_right)
+
+
+@inner
+def with_friction(finger, mu):
+    """`finger` with its contacts' friction `mu`."""
     return FingerModel(finger.l1, finger.l2, finger.r1, finger.r2, finger.r, mu,
                        finger.theta2_min, finger.theta2_max)
 

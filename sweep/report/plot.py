@@ -6,7 +6,7 @@
   eject as grey levels of `V`, vertex as tan-tinted grey levels, unreached flat light grey
   (both fingers fully closed there, so `V` is one value), with the boundary of `P_j` outlined;
 - hatching where the part is in equilibrium, and the outline of the caged region;
-- downhill trajectories by the map's own rule (kernels/field.py: sliding, grid8, or
+- downhill trajectories by the map's own rule (kernels/trajectories.py: sliding, grid8, or
   continuous streamlines) from a sparse lattice of starting points of `P_j`;
 - the end points of the trajectories that move (caged, tip prehension, ejection: the first point
   outside `P_j`, stalled), sized by how many points of `P_j` end there;
@@ -32,10 +32,15 @@ from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
 from ..compute.layout import hand_record, kernel_records
 from ..kernels.streamline import max_streamline_steps, streamline_walk
-from ..kernels.field import (
-    SLIDE_REJOINS, downhill_neighbour, max_slide_points, new_memo, slide_successor,
+from ..kernels.trajectories import (
+    downhill_neighbour,
+    max_slide_points,
+    new_memo,
+    SLIDE_REJOINS,
+    slide_successor,
 )
-from ..kernels.hand import finger_polyline, no_slide_context
+from ..kernels.hand import finger_polyline
+from ..kernels.meeting_search import no_slide_context
 from ..model import (EJECT, END_CAGED, INFEASIBLE, REACHED, STREAMLINE_STEP, UNREACHED,
                      VERTEX_POINT)
 from ..outputs import write_bytes_atomic
@@ -82,7 +87,7 @@ def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
 
 
 def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
-    """World points (n, 2) of the sliding trajectory from `start` (kernels/field.py, the
+    """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectories.py, the
     default rule): grid steps, and where every neighbour is uphill the slide on the true
     energy; and the flat index of the point where it ends (the map's `end_index`)."""
 

@@ -68,7 +68,8 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..compute.batch import caging_areas, cell_keys, numba_threads
+from ..compute.batch import caging_areas, cell_keys
+from ..compute.threads import numba_threads
 from ..compute.warm import ensure_compiled
 from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from .. import __version__
 from ..config.chunks import Range, chunk_ranges
-from ..grid import available_memory
+from ..grid import check_memory_need
 from ..outputs import (
     OutputLock, claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic,
 )
@@ -53,6 +53,11 @@ class RunDir:
     @property
     def manifest(self) -> Path:
         return self.root / MANIFEST
+
+    @property
+    def results(self) -> Path:
+        """The merged store of an array job (`sweep slurm --submit`'s default --results)."""
+        return self.root / "results.h5"
 
     @property
     def logs(self) -> Path:
@@ -343,11 +348,8 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
                          f"{desc}")
     scene = scene_from_frozen(read_block(status.shards[0].path, with_data=False).frozen)
     # the store is written a shard and a part at a time: the largest shard counts, not the sweep
-    need = write_bytes(scene, max(s.range[1] - s.range[0] for s in status.shards))
-    available = available_memory()
-    if need > 0.8 * available:
-        raise StoreError(f"cannot merge {root}: the merge needs about {need / 1024**3:.1f} GiB in "
-                         f"memory, about {available / 1024**3:.1f} GiB free")
+    check_memory_need(write_bytes(scene, max(s.range[1] - s.range[0] for s in status.shards)),
+                      f"the merge of {root}", "merge on a machine with more memory")
     with claim_output(out, overwrite=overwrite, wait=wait):
         # without their data: the store is written from one shard at a time (write_store)
         blocks = [read_block(s.path, with_data=False) for s in status.shards]

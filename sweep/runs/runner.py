@@ -23,7 +23,7 @@ import numpy as np
 
 from .. import __version__, grid
 from ..compute import batch, maps, warm
-from ..compute.batch import numba_threads
+from ..compute.threads import check_threads, numba_threads
 from ..storage import mapfile
 from ..config.chunks import chunk_ranges, missing_ranges, sub_ranges
 from ..model import Design, Grid, Part
@@ -88,11 +88,7 @@ def resolve_threads(threads: int | None, environ=None) -> int | None:
         except ValueError:
             raise RunError(f"{THREADS_VAR}={raw!r} is not a number of threads") from None
     if threads is not None:
-        import numba
-
-        if not 1 <= threads <= numba.config.NUMBA_NUM_THREADS:
-            raise RunError(f"threads must be between 1 and {numba.config.NUMBA_NUM_THREADS} "
-                           f"(this machine's cores), got {threads}")
+        check_threads(threads)
     return threads
 
 
@@ -104,14 +100,11 @@ def check_run_memory(scene: Scene, threads: int | None) -> None:
         import numba
 
         threads = numba.get_num_threads()
-    need = scene.memory_bytes(threads)
-    available = grid.available_memory()
-    if need > 0.8 * available:
-        gib = 1024**3
-        raise RunError(f"the run needs about {need / gib:.1f} GiB ({threads} threads x "
-                       f"{scene.cell_bytes() / gib:.2f} GiB for the largest cell, "
-                       f"{scene.held_bytes() / gib:.2f} GiB of results), about "
-                       f"{available / gib:.1f} GiB free: use fewer --threads or a larger grid.h")
+    gib = 1024**3
+    grid.check_memory_need(scene.memory_bytes(threads),
+                           f"the run ({threads} threads x {scene.cell_bytes() / gib:.2f} GiB "
+                           f"for the largest cell, {scene.held_bytes() / gib:.2f} GiB of "
+                           f"results)", "use fewer --threads or a larger grid.h")
 
 
 # ---------------------------------------------------------------------------------------------

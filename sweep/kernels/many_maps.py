@@ -1,0 +1,499 @@
+"""Many maps at once (`summarize_cells`): per-map summaries of cells (l1, l2, r1, r2, r, mu) x
+palm widths, from one shared finger field, and the contact forces per pose of the manipulation
+metric (MODEL 10).
+
+A finger's solution depends only on the part centre relative to its base, so when every palm
+half-width is a whole number of grid steps, one right-finger field over integer offsets serves
+both fingers of every width: the right finger at world column i reads offset i - s, the left
+finger offset -i - s (model-notes D1). The offsets are the same floating-point numbers the
+direct computation uses, so the maps are bitwise identical to `compute_map`'s.
+"""
+import numpy as np
+
+from ..model import REACHED
+from .hull import convex_hull, inscribed_radius
+from .jit import entry, inner
+from .records import (
+    cell_finger,
+    Hand,
+    LEFT,
+    new_finger_arrays,
+    new_outcome_arrays,
+    no_force_arrays,
+    no_settled_fingers,
+    RIGHT,
+    SettledFingers,
+    wants_manipulation,
+    wants_scenario_c,
+    with_friction,
+)
+from .hand import (
+    fingers_cross,
+    friction_cones,
+    link_vectors,
+    part_contained,
+    part_in_equilibrium,
+    polyline_from_links,
+    mouth_opening,
+    touches_palm,
+)
+from .meeting import rests_on_other_finger
+from .meeting_search import collide
+from .outcome import classify_point
+from .one_map import (
+    ALL_OUTPUTS,
+    cage_score,
+    CONTAINED,
+    finger_rows,
+    finger_statics_at,
+    fingers_touch,
+    HALF_ROWS,
+    map_from_fingers,
+    MIRRORED,
+    SCRATCH_ANGLES,
+    SHARED,
+    STABLE_POINTS,
+    WHOLE_ROWS,
+)
+
+
+# ---------------------------------------------------------------------------------------------
+# Many maps
+# ---------------------------------------------------------------------------------------------
+@inner
+def shared_field_extent(palm_steps, ncols):
+    """(m_lo, number of offsets) of the shared field that serves every width of a cell."""
+    m_lo = 0
+    m_hi = 0
+    for k in range(palm_steps.shape[0]):
+        m_lo = min(m_lo, -ncols[k] - palm_steps[k])
+        m_hi = max(m_hi, ncols[k] - palm_steps[k])
+    return m_lo, m_hi - m_lo + 1
+
+
+@entry
+def shared_finger_field(finger, solver, effects, palm_steps, ncols, ny, h):
+    """The right finger's field over every offset any width of the cell needs."""
+    m_lo, nm = shared_field_extent(palm_steps, ncols)
+    dxs = np.empty(nm)
+    for m in range(nm):
+        dxs[m] = (m + m_lo) * h
+    ys = np.empty(ny)
+    for j in range(ny):
+        ys[j] = finger.r + j * h
+    shared = new_finger_arrays(np.int64(1), ny, nm)
+    finger_rows(np.int64(0), ny, dxs, ys, finger, solver, effects, shared, SHARED)
+    return shared, m_lo, ys
+
+
+@entry
+def gather_fingers(shared, m_lo, step, ncol, ny, h):
+    """Both fingers of the map of palm half-width `step` grid steps, from the shared field:
+    (world xs, FingerArrays on (2, ny, 2 ncol + 1)). Copied row by row, one finger's field at a
+    time: reads and writes run along rows (column by column it took over a third of the
+    per-map work after the finger field)."""
+    nx = 2 * ncol + 1
+    xs = np.empty(nx)
+    for c in range(nx):
+        xs[c] = (c - ncol) * h
+    fingers = new_finger_arrays(np.int64(2), ny, nx)
+    for side in range(2):
+        for j in range(ny):
+            gather_row(shared.mode[0, j], fingers.mode[side, j], side, m_lo, step, ncol)
+            gather_row(shared.t1[0, j], fingers.t1[side, j], side, m_lo, step, ncol)
+            gather_row(shared.t2[0, j], fingers.t2[side, j], side, m_lo, step, ncol)
+            gather_row(shared.k1[0, j], fingers.k1[side, j], side, m_lo, step, ncol)
+            gather_row(shared.k2[0, j], fingers.k2[side, j], side, m_lo, step, ncol)
+            gather_row(shared.tip_overlap[0, j], fingers.tip_overlap[side, j], side, m_lo, step,
+                       ncol)
+    return xs, fingers
+
+
+@inner
+def gather_row(src, dst, side, m_lo, step, ncol):
+    """One row of one finger field: world column c (i = c - ncol) of the right finger reads
+    offset i - step (a shift), of the left finger offset -i - step (a mirror)."""
+    if side == 1:
+        base = -ncol - step - m_lo
+        for c in range(dst.shape[0]):
+            dst[c] = src[base + c]
+    else:
+        base = ncol - step - m_lo
+        for c in range(dst.shape[0]):
+            dst[c] = src[base - c]
+
+
+@inner
+def shared_finger_links(shared, finger):
+    """Per point of a cell's shared finger field, the link vectors l1 (cos t1, sin t1) and
+    l2 (cos phi, sin phi) in the finger's frame: (4, y, offset)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = np.empty((4, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
+            # what finger_polyline forms, so world coordinates match it bit for bit
+            l1c, l1s, l2c, l2s = link_vectors(shared.t1[0, j, m], shared.t2[0, j, m],
+                                              finger.l1, finger.l2)
+            links[0, j, m] = l1c
+            links[1, j, m] = l1s
+            links[2, j, m] = l2c
+            links[3, j, m] = l2s
+    return links
+
+
+@inner
+def shared_finger_links_and_statics(shared, finger):
+    """Per point of a cell's shared finger field, what every width's map reads from it for the
+    manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
+    unit tension (determined, resultant x, y)."""
+    ny, nm = shared.mode.shape[1], shared.mode.shape[2]
+    links = shared_finger_links(shared, finger)
+    statics = np.empty((3, ny, nm))
+    for j in range(ny):
+        for m in range(nm):
+            st = finger_statics_at(shared, SHARED, j, m, finger)
+            statics[0, j, m] = 1.0 if st.determined else 0.0
+            statics[1, j, m] = st.resultant_x
+            statics[2, j, m] = st.resultant_y
+    return links, statics
+
+
+@inner
+def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
+                           ncol_max, k, manip, c, a_count, a_fx, a_fy):
+    """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
+    equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9; not
+    where finger_collision stopped a finger on the other, D17: `fingers` are the map's, after
+    the effect). Elsewhere the fingers are the shared field's, whose links and statics are
+    precomputed. Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces
+    (each command F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose
+    buffers. Forces are the fingers' per-unit-tension resultants (world frame) times S_geo."""
+    capacity = manip.pose.shape[1]
+    n_lattice = 2 * manip.lattice_ncol[c] + 1
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for col in range(xs.shape[0]):
+            if outs.point_class[j, col] != REACHED or outs.equilibrium[j, col]:
+                continue
+            x = xs[col]
+            if touches_palm(x, y, hand.w, finger.r) or fingers_touch(fingers, j, col, finger):
+                continue
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared field's columns (gather_fingers)
+            src_r = i - step - m_lo
+            # cheapest first: statics (precomputed), containment, then the opening
+            if statics[0, j, src_l] == 0.0 or statics[0, j, src_r] == 0.0:
+                continue
+            left = polyline_from_links(LEFT, hand.w, links[0, j, src_l], links[1, j, src_l],
+                                       links[2, j, src_l], links[3, j, src_l])
+            right = polyline_from_links(RIGHT, hand.w, links[0, j, src_r], links[1, j, src_r],
+                                        links[2, j, src_r], links[3, j, src_r])
+            if not part_contained(x, y, left, right):
+                continue
+            crossed = fingers_cross(left, right)
+            s_geo = cage_score(CONTAINED, mouth_opening(left, right, crossed), finger.r)
+            if s_geo <= 0.0:
+                continue
+            lx = -statics[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics[2, j, src_l]
+            rx = statics[1, j, src_r]
+            ry = statics[2, j, src_r]
+            e = manip.n_entries[c]
+            if e < capacity:
+                manip.pose[c, e] = j * n_lattice + i + manip.lattice_ncol[c]
+                manip.fx[c, e] = (lx + rx) * s_geo
+                manip.fy[c, e] = (ly + ry) * s_geo
+                manip.width[c, e] = k
+                manip.crossed[c, e] = crossed
+            manip.n_entries[c] = e + 1
+            a = col - ncol + ncol_max
+            for f_left in manip.a_commands:
+                n = a_count[j, a]
+                a_fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                a_fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                a_count[j, a] = n + 1
+
+
+@inner
+def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, statics_l, links_r,
+                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy,
+                        mirror, half):
+    """Scenario C (MODEL 10): the counted poses of one map whose left finger touches the part
+    with friction hand.mu_left and the right with hand.mu_right (the palm: finger.mu_s), the
+    left finger read from the shared field `left` (solved at that friction, with its links and
+    statics), the right from `right`; every command's force (F_left of `commands`, F_right = 2 -
+    F_left) into the per-pose buffers.
+
+    The count rule of collect_counted_forces, pose by pose, with the same functions, so that a
+    pair's poses are those of its map (`compute_map(mu_left=, mu_right=)`): settled fingers
+    first (class, palm, statics, containment, S_geo), then finger_collision where the settled
+    fingers cross (meeting_search.collide: a finger stopped on the other leaves the pose
+    undetermined, D17), then the part's equilibrium with each contact's own cone.
+
+    `mirror`: each counted pose x = i h also gives the pose -x of the swapped pair (left with
+    hand.mu_right, right with hand.mu_left), its mirror image (the model is mirror-symmetric,
+    MODEL 11; the fields, links and statics are the same numbers, and its forces are formed as
+    the swapped pair's own would be, bit for bit); with `half` (a pair that is its own swap),
+    only the poses x <= 0 are visited."""
+    r = finger.r
+    w = hand.w
+    collision = effects.finger_collision
+    cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
+    mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
+    mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
+    n_cols = ncol + 1 if half else xs.shape[0]
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for col in range(n_cols):
+            i = col - ncol                    # world column: x = i h
+            src_l = -i - step - m_lo          # the shared fields' columns (gather_fingers)
+            src_r = i - step - m_lo
+            ml = np.int64(mode_l[0, j, src_l])
+            mr = np.int64(mode_r[0, j, src_r])
+            if classify_point(y, r, ml, mr) != REACHED:
+                continue
+            x = xs[col]
+            if touches_palm(x, y, w, r):
+                continue
+            if statics_l[0, j, src_l] == 0.0 or statics_r[0, j, src_r] == 0.0:
+                continue
+            left_line = polyline_from_links(LEFT, w, links_l[0, j, src_l], links_l[1, j, src_l],
+                                            links_l[2, j, src_l], links_l[3, j, src_l])
+            right_line = polyline_from_links(RIGHT, w, links_r[0, j, src_r],
+                                             links_r[1, j, src_r], links_r[2, j, src_r],
+                                             links_r[3, j, src_r])
+            if not part_contained(x, y, left_line, right_line):
+                continue
+            crossed = fingers_cross(left_line, right_line)
+            s_geo = cage_score(CONTAINED, mouth_opening(left_line, right_line, crossed), r)
+            if s_geo <= 0.0:
+                continue
+            a1l, a2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
+            a1r, a2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
+            if crossed and collision.on:  # (fingers that do not cross are left as settled)
+                changed, new_l, new_r = collide(finger, w, collision, ml, a1l, a2l,
+                                                k1_l[0, j, src_l], k2_l[0, j, src_l], mr, a1r,
+                                                a2r, k1_r[0, j, src_r], k2_r[0, j, src_r])
+                if changed:
+                    if (rests_on_other_finger(new_l[0], new_l[1], new_l[2], finger)
+                            or rests_on_other_finger(new_r[0], new_r[1], new_r[2], finger)):
+                        continue
+                    ml, a1l, a2l = new_l[0], new_l[1], new_l[2]
+                    mr, a1r, a2r = new_r[0], new_r[1], new_r[2]
+                    if classify_point(y, r, ml, mr) != REACHED:
+                        continue
+            if part_in_equilibrium(scratch, x, y, w, r, cones, ml, a1l, a2l, mr, a1r, a2r,
+                                   finger.l1, finger.l2, effects.tip_contact):
+                continue
+            lx = -statics_l[1, j, src_l]         # the left finger's frame is mirrored in x
+            ly = statics_l[2, j, src_l]
+            rx = statics_r[1, j, src_r]
+            ry = statics_r[2, j, src_r]
+            a = col - ncol + ncol_max
+            for f_left in commands:
+                n = count[j, a]
+                fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
+                fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
+                count[j, a] = n + 1
+            if mirror and not (half and i == 0):
+                # the swapped pair at -x: its left finger is this right one mirrored (x force
+                # -rx), its right finger this left one (x force -lx)
+                a = -i + ncol_max
+                for f_left in commands:
+                    n = count[j, a]
+                    fx[j, a, n] = (f_left * -rx + (2.0 - f_left) * -lx) * s_geo
+                    fy[j, a, n] = (f_left * ry + (2.0 - f_left) * ly) * s_geo
+                    count[j, a] = n + 1
+
+
+@inner
+def append_forces(count, fx, fy, more_count, more_fx, more_fy):
+    """Each pose's forces in the `more` buffers appended to its own."""
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            for q in range(more_count[j, a]):
+                fx[j, a, n + q] = more_fx[j, a, q]
+                fy[j, a, n + q] = more_fy[j, a, q]
+            count[j, a] = n + more_count[j, a]
+
+
+@inner
+def friction_field(finger, mu, solver, effects, palm_steps, ncols, ny, h):
+    """The shared finger field of a cell with the finger's contacts at friction `mu`, and its
+    links and statics (Scenario C's low-friction surface)."""
+    switched = with_friction(finger, mu)
+    field, _, _ = shared_finger_field(switched, solver, effects, palm_steps, ncols, ny, h)
+    links, statics = shared_finger_links_and_statics(field, switched)
+    return field, links, statics
+
+
+@inner
+def surrounds_origin(fx, fy):
+    """Forces on both sides of the origin in x and in y: without that, the origin is not
+    strictly inside their hull and the pose's value is 0 (hull.inscribed_radius returns 0 for
+    such a hull, so this only spares the hull)."""
+    left = right = below = above = False
+    for q in range(fx.shape[0]):
+        left |= fx[q] < 0.0
+        right |= fx[q] > 0.0
+        below |= fy[q] < 0.0
+        above |= fy[q] > 0.0
+    return left and right and below and above
+
+
+@entry
+def pose_radius_sum(count, fx, fy, pose_value, c):
+    """Sum over poses of the inscribed radius of the hull of each pose's forces (MODEL 10);
+    each pose's value also into pose_value[c] when that array has rows."""
+    keep = pose_value.shape[0] > 0
+    total = 0.0
+    for j in range(count.shape[0]):
+        for a in range(count.shape[1]):
+            n = count[j, a]
+            value = 0.0
+            if n >= 3 and surrounds_origin(fx[j, a, :n], fy[j, a, :n]):
+                hx, hy = convex_hull(fx[j, a, :n], fy[j, a, :n])
+                value = inscribed_radius(hx, hy, hx.shape[0])
+            total += value
+            if keep:
+                pose_value[c, j, a] = value
+    return total
+
+
+@entry(nogil=True)
+def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f_right, theta2_min,
+                    theta2_max, solver, effects, out, want, manip):
+    """The maps of cells first .. last - 1 at every width, each cell's from one shared finger
+    field, in order on the calling thread, without the GIL (`sweep.compute.threads` runs
+    ranges of cells on several threads). One function, not one per cell: each level of the
+    call tree above the model compiles the whole tree below it again (docs/performance.md).
+
+    cells: (n, 6) l1 l2 r1 r2 r mu; out: (n, n_w, N_SUMMARY); want: bool (n, n_w), the maps to
+    compute (out[c, k] of another stays as it was: the refinement asks for a few widths of a
+    cell, and a width's map costs far more than its share of the field). palm_steps[k] is the palm
+    half-width of width k in grid steps; the map of cell c at width k has columns
+    i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h, j = 0 .. nys[c] - 1. With `manip`
+    (a ManipulationOut with a row per cell; without: records.no_manipulation()) the contact
+    forces are computed too and row c of `manip` receives the cell's manipulation metric data
+    (MODEL 10), Scenario C's too when `manip` has its low friction (a second shared field at
+    that friction, the pairs with a switched finger: collect_pair_forces). With
+    finger_collision, this call's memo of meetings (records.SettledFingers: (n_w, y, x, 5), one
+    map per width, and the l1, l2 of the cell that filled it) is filled while the next cell
+    has the same links and cleared when the links change."""
+    manipulation = wants_manipulation(manip)
+    scenario_c = manipulation and wants_scenario_c(manip)
+    collision = effects.finger_collision.on
+    no_forces = no_force_arrays()
+    memo = np.empty((0, 0, 0, 5))
+    if collision and last > first:   # as large as the largest map of these cells
+        memo = np.empty((ws.shape[0], nys[first:last].max(), 2 * ncols[first:last].max() + 1, 5))
+    memo_key = np.full(2, np.nan)
+    scratch = np.empty(SCRATCH_ANGLES)
+    # Scenario C's low-friction field depends on the cell without its mu (the cells of one
+    # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
+    low_key = np.full(5, np.nan)
+    low = new_finger_arrays(np.int64(1), np.int64(0), np.int64(0))
+    low_links = np.empty((4, 0, 0))
+    low_statics = np.empty((3, 0, 0))
+    # the pair (mu_low, mu_low) does not depend on the part's mu either (palm poses never
+    # count): its forces, kept with the field (the manipulation metric wants every width)
+    low_count = np.zeros((0, 0), dtype=np.int64)
+    low_fx = np.empty((0, 0, 0))
+    low_fy = np.empty((0, 0, 0))
+    for c in range(first, last):
+        finger = cell_finger(cells, c, theta2_min, theta2_max)
+        ny = nys[c]
+        cell_ncols = ncols[c]
+        memo_next = (c + 1 < last and cells[c + 1, 0] == cells[c, 0]
+                     and cells[c + 1, 1] == cells[c, 1])
+        shared, m_lo, ys = shared_finger_field(finger, solver, effects, palm_steps, cell_ncols,
+                                               ny, h)
+        ncol_max = np.int64(0)
+        slots = 0
+        a_count = np.zeros((0, 0), dtype=np.int64)
+        a_fx = np.empty((0, 0, 0))
+        a_fy = np.empty((0, 0, 0))
+        links = np.empty((4, 0, 0))
+        statics = np.empty((3, 0, 0))
+        if manipulation:
+            for k in range(ws.shape[0]):
+                ncol_max = max(ncol_max, cell_ncols[k])
+            slots = ws.shape[0] * manip.a_commands.shape[0]
+            a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+            a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+            a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+            manip.n_entries[c] = 0
+            links, statics = shared_finger_links_and_statics(shared, finger)
+        elif collision:
+            links = shared_finger_links(shared, finger)
+        # Scenario C: the pairs with a finger on the low friction, unless it is the part's own
+        # (then the four pairs are A's one, and C is A)
+        mu_low = manip.c_mu_low[0] if scenario_c else finger.mu_s
+        switching = mu_low != finger.mu_s
+        c_count = np.zeros((0, 0), dtype=np.int64)
+        c_fx = np.empty((0, 0, 0))
+        c_fy = np.empty((0, 0, 0))
+        fresh_low = False
+        if switching:
+            c_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+            c_fx = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            c_fy = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            key = (finger.l1, finger.l2, finger.r1, finger.r2, finger.r)
+            fresh_low = not (low_key[0] == key[0] and low_key[1] == key[1]
+                             and low_key[2] == key[2] and low_key[3] == key[3]
+                             and low_key[4] == key[4])
+            if fresh_low:
+                low, low_links, low_statics = friction_field(finger, mu_low, solver, effects,
+                                                             palm_steps, cell_ncols, ny, h)
+                for q in range(5):
+                    low_key[q] = key[q]
+                low_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
+                low_fx = np.empty((ny, 2 * ncol_max + 1, slots))
+                low_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+        memo_read = False
+        if collision:
+            memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
+            if memo_next and not memo_read:
+                memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
+                memo_key[0] = finger.l1
+                memo_key[1] = finger.l2
+        for k in range(ws.shape[0]):
+            if not want[c, k]:
+                continue
+            xs, fingers = gather_fingers(shared, m_lo, palm_steps[k], cell_ncols[k], ny, h)
+            outs = new_outcome_arrays(ny, xs.shape[0])
+            stack = np.empty(ny * xs.shape[0], dtype=np.int64)
+            hand = Hand(ws[k], f_left, f_right, h, finger.mu_s, finger.mu_s)
+            settled = no_settled_fingers()
+            if collision:  # the settled fingers' links, as gather_fingers reads the shared field
+                settled = SettledFingers(True, links, cell_ncols[k] - palm_steps[k] - m_lo, -1,
+                                         -cell_ncols[k] - palm_steps[k] - m_lo, 1, memo[k],
+                                         memo_read, memo_next)
+            map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, no_forces,
+                             stack, out[c, k], STABLE_POINTS, ALL_OUTPUTS, ALL_OUTPUTS, settled)
+            if manipulation:
+                collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
+                                       palm_steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
+                                       a_fx, a_fy)
+            if switching:
+                # (mu_low, mu_s), and its mirror image (mu_s, mu_low)
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, finger.mu_s),
+                    effects, low, shared, low_links, low_statics, links, statics, m_lo,
+                    palm_steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch, c_count,
+                    c_fx, c_fy, MIRRORED, WHOLE_ROWS)
+            if fresh_low:  # (mu_low, mu_low), its own mirror image: half the poses
+                collect_pair_forces(
+                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, mu_low), effects,
+                    low, low, low_links, low_statics, low_links, low_statics, m_lo, palm_steps[k],
+                    cell_ncols[k], ncol_max, manip.a_commands, scratch, low_count, low_fx,
+                    low_fy, MIRRORED, HALF_ROWS)
+        if manipulation:
+            manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
+        if switching:
+            append_forces(c_count, c_fx, c_fy, low_count, low_fx, low_fy)
+            append_forces(c_count, c_fx, c_fy, a_count, a_fx, a_fy)
+            manip.c_metric[c] = pose_radius_sum(c_count, c_fx, c_fy, manip.c_pose_value, c)
+        elif scenario_c:  # mu_low is the part's own: the same forces as A
+            manip.c_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.c_pose_value, c)
