@@ -57,7 +57,7 @@ test-long: $(STAMP)
 # that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -p no:cacheprovider tests/test_layers.py
+	$(PY) -m pytest -q -p no:cacheprovider tests/test_layers.py tests/test_model_references.py
 
 # The sweep as a SLURM array job on a real single-node cluster (as root; installs slurm-wlm and
 # munge if missing; stops its daemons and removes its files whatever happens). Under 2 minutes.

@@ -85,7 +85,7 @@ def compare_partial(base_path, parts_dir, l1_best=None):
     from pathlib import Path
 
     from sweep.schema import SUMMARY_FIELDS
-    from sweep.storage.store import read_block
+    from sweep.storage.store import read_item_file
 
     base = read_store(base_path)
     # store dims (l1 l2 r1 r2 w r mu) -> item order (l1 l2 r [command] r1 r2 mu) x w
@@ -98,7 +98,7 @@ def compare_partial(base_path, parts_dir, l1_best=None):
     eff = np.full((n_items, n_w, len(SUMMARY_FIELDS)), np.nan)
     covered = np.zeros(n_items, dtype=bool)
     for p in sorted(Path(parts_dir).glob("*.h5")):
-        b = read_block(p)
+        b = read_item_file(p)
         eff[b.start:b.stop] = b.data
         covered[b.start:b.stop] = True
     idx = {n: k for k, n in enumerate(SUMMARY_FIELDS)}

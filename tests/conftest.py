@@ -21,7 +21,7 @@ settings.load_profile("sweep")
 DATA = Path(__file__).parent / "data"
 #: Modules whose tests compute nothing (`make lint` runs test_layers.py alone): a session of
 #: only these does not compile the kernels.
-COMPUTE_FREE = {"test_layers.py"}
+COMPUTE_FREE = {"test_layers.py", "test_model_references.py"}
 
 
 def pytest_terminal_summary(terminalreporter, exitstatus, config):

@@ -71,8 +71,8 @@ def fake_items(scene, start, stop):
 def block_in_memory(scene, items, start=0):
     """Summaries of items [start, start + len(items)) as a block held in memory (no file)."""
     from sweep import __version__
-    from sweep.storage.store import KIND_PART, Block
+    from sweep.storage.store import KIND_PART, ItemFile
 
-    return Block(path=None, kind=KIND_PART, start=start, stop=start + len(items),
+    return ItemFile(path=None, kind=KIND_PART, start=start, stop=start + len(items),
                  config_hash=scene.config_hash, version=__version__, frozen=scene.frozen(),
                  compute_seconds=0.0, data=items)

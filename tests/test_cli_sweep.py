@@ -27,7 +27,7 @@ from sweep.cli import register
 from sweep.runs.rundir import SingleRun, prepare_parts_dir
 from sweep.config.parse import scene_from_dict
 from sweep.runs.slurm import sbatch_script
-from sweep.storage.store import read_block, read_store
+from sweep.storage.store import read_item_file, read_store
 from sweep_cases import tiny, write_config
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -202,7 +202,7 @@ def test_ctrl_c_keeps_finished_work_and_rerun_resumes(cli, reference, tmp_path, 
     assert res.exit_code == 130 and "rerun the same command to resume" in res.output
     assert not out.exists()
     parts = sorted((tmp_path / "a.h5.parts").glob("items-*.h5"))
-    assert len(parts) == 2 and all(read_block(p).stop > read_block(p).start for p in parts)
+    assert len(parts) == 2 and all(read_item_file(p).stop > read_item_file(p).start for p in parts)
     assert not list(tmp_path.rglob(".*.tmp*"))              # nothing half-written left behind
 
     counted = []
@@ -466,7 +466,7 @@ def _wait_for_parts(proc, parts, n, seen):
         assert proc.poll() is None, proc.communicate()
         for p in parts.glob("items-*.h5") if parts.exists() else []:
             if p not in seen:
-                read_block(p)                                # complete the moment it is visible
+                read_item_file(p)                                # complete the moment it is visible
                 seen.add(p)
         time.sleep(0.005)
 
@@ -496,7 +496,7 @@ def test_sigterm_and_sigkill_then_rerun_is_bit_identical(tmp_path):
             assert not list(tmp_path.rglob(".*.tmp*"))       # a clean stop leaves no tmp file
         assert not out.exists()
         for p in parts.glob("items-*.h5"):
-            read_block(p)                                    # what survived is whole
+            read_item_file(p)                                    # what survived is whole
 
     res = subprocess.run(cmd, env=env, capture_output=True, text=True)
     assert res.returncode == 0, res.stderr

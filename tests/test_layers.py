@@ -327,3 +327,34 @@ def test_the_dependency_check_sees_an_import_inside_a_function(tmp_path):
     (pkg / "a.py").write_text("import os\nimport numpy as np\n"
                               "def f():\n    import xarray.core\n    from yaml import x\n")
     assert third_party_imports(pkg) == {"numpy", "xarray", "yaml"}
+
+
+#: A module a reader can hold in mind: its own docstring says what it holds, and the kernels
+#: are split by idea (docs/architecture.md, "Layers") rather than merged to meet this number.
+MAX_MODULE_LINES = 700
+
+
+def long_modules(package: Path, limit: int = MAX_MODULE_LINES) -> dict[str, int]:
+    return {path.relative_to(package.parent).as_posix(): n for path in sorted(package.rglob("*.py"))
+            if (n := len(path.read_text().splitlines())) > limit}
+
+
+def test_no_module_is_longer_than_a_reader_holds():
+    assert long_modules(PACKAGE) == {}
+
+
+def test_every_kernel_module_says_what_it_holds():
+    """Each module's docstring opens with what it holds (a reader checks it against the code)."""
+    import ast
+
+    for path in sorted((PACKAGE / "kernels").glob("*.py")):
+        doc = ast.get_docstring(ast.parse(path.read_text()))
+        assert doc and len(doc.split()) >= 8, f"{path.name}: no docstring saying what it holds"
+
+
+def test_the_length_check_sees_a_long_module(tmp_path):
+    pkg = tmp_path / "sweep"
+    (pkg / "kernels").mkdir(parents=True)
+    (pkg / "kernels" / "long.py").write_text("x = 1\n" * 11)
+    (pkg / "short.py").write_text("x = 1\n" * 10)
+    assert long_modules(pkg, limit=10) == {"sweep/kernels/long.py": 11}

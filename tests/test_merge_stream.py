@@ -29,7 +29,7 @@ from sweep.schema import COUNT_FIELDS
 from sweep.storage import store
 from sweep.storage.h5 import atomic_file
 from sweep.storage.store import (
-    KIND_PART, CorruptFile, read_block, read_manipulation, store_differences, write_block,
+    KIND_PART, CorruptFile, read_item_file, read_manipulation, store_differences, write_item_file,
     write_store,
 )
 from sweep_cases import block_in_memory, fake_items, tiny
@@ -195,9 +195,9 @@ def test_streamed_parts_equal_the_one_pass_merge_on_random_forces(seed, tmp_path
     for a, b in zip(bounds[:-1], bounds[1:]):
         chunks.append(random_chunk(scene, a, b, rng))
         path = tmp_path / f"part-{a}.h5"
-        write_block(path, scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0,
+        write_item_file(path, scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0,
                     manipulation=chunks[-1])
-        blocks.append(read_block(path, with_data=False))
+        blocks.append(read_item_file(path, with_data=False))
     monkeypatch.setattr(store, "MERGE_ROWS", 300)
     monkeypatch.setattr(manip, "BATCH_ROWS", 64)
     write_store(tmp_path / "s.h5", scene, blocks, {}, "test")

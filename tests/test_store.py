@@ -16,8 +16,9 @@ from sweep.config.scene import STORE_DIMS
 from sweep.config.parse import scene_from_dict, scene_from_frozen
 from sweep.runs.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
 from sweep.storage.store import (
-    KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_block, read_store,
-    store_arrays, write_block, write_store,
+    KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_item_file,
+    read_store,
+    store_arrays, write_item_file, write_store,
 )
 from sweep_cases import block_in_memory, fake_items, fake_summaries, tiny
 
@@ -27,7 +28,7 @@ def write_shards(scene, root, n_chunks):
     ensure_manifest(rundir, scene, n_chunks)
     ranges = chunk_ranges(scene.n_items, n_chunks, scene.group_size, scene.group_costs())
     for k, (a, b) in enumerate(ranges):
-        write_block(rundir.shard(k, n_chunks), scene, a, b, fake_items(scene, a, b), KIND_SHARD,
+        write_item_file(rundir.shard(k, n_chunks), scene, a, b, fake_items(scene, a, b), KIND_SHARD,
                     compute_seconds=1.0, chunk=k, n_chunks=n_chunks)
     return rundir
 
@@ -40,8 +41,8 @@ def scene():
 def test_block_round_trip(tmp_path, scene):
     data = fake_items(scene, 3, 7)
     path = tmp_path / "items.h5"
-    write_block(path, scene, 3, 7, data, KIND_PART, compute_seconds=0.5)
-    b = read_block(path)
+    write_item_file(path, scene, 3, 7, data, KIND_PART, compute_seconds=0.5)
+    b = read_item_file(path)
     assert (b.kind, b.start, b.stop, b.config_hash, b.version) == \
         (KIND_PART, 3, 7, scene.config_hash, __version__)
     np.testing.assert_array_equal(b.data, data)
@@ -50,7 +51,7 @@ def test_block_round_trip(tmp_path, scene):
 
 def test_block_of_wrong_shape_is_not_written(tmp_path, scene):
     with pytest.raises(ValueError):
-        write_block(tmp_path / "x.h5", scene, 0, 4, np.zeros((3, 2, len(SUMMARY_FIELDS))),
+        write_item_file(tmp_path / "x.h5", scene, 0, 4, np.zeros((3, 2, len(SUMMARY_FIELDS))),
                     KIND_PART, 0.0)
     assert not list(tmp_path.iterdir())
 
@@ -58,7 +59,7 @@ def test_block_of_wrong_shape_is_not_written(tmp_path, scene):
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "foreign-hdf5"])
 def test_damaged_block_is_corrupt(tmp_path, scene, damage):
     path = tmp_path / "items.h5"
-    write_block(path, scene, 0, 4, fake_items(scene, 0, 4), KIND_PART, 0.0)
+    write_item_file(path, scene, 0, 4, fake_items(scene, 0, 4), KIND_PART, 0.0)
     if damage == "truncate":
         raw = path.read_bytes()
         path.write_bytes(raw[: len(raw) // 2])
@@ -69,7 +70,7 @@ def test_damaged_block_is_corrupt(tmp_path, scene, damage):
         with h5py.File(path, "w") as f:
             f["summaries"] = np.zeros(3)
     with pytest.raises(CorruptFile):
-        read_block(path)
+        read_item_file(path)
 
 
 def test_store_axes_follow_the_item_numbering(scene):
@@ -141,8 +142,8 @@ def test_non_integral_counts_are_refused(scene):
 def test_assemble_needs_an_exact_cover(tmp_path, scene):
     blocks = []
     for a, b in ((0, 5), (5, 9)):
-        write_block(tmp_path / f"{a}.h5", scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0)
-        blocks.append(read_block(tmp_path / f"{a}.h5"))
+        write_item_file(tmp_path / f"{a}.h5", scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0)
+        blocks.append(read_item_file(tmp_path / f"{a}.h5"))
     np.testing.assert_array_equal(assemble(scene, blocks, 0, 9), fake_items(scene, 0, 9))
     with pytest.raises(StoreError, match="do not cover"):
         assemble(scene, blocks)
@@ -170,7 +171,7 @@ def _truncate(path):
 
 def _other_config_shard(scene, root):
     other = scene_from_dict(tiny(grid={"h": 0.3}))
-    write_block(root / "shard-0002-of-0004.h5", other, 8, 12, fake_items(other, 8, 12),
+    write_item_file(root / "shard-0002-of-0004.h5", other, 8, 12, fake_items(other, 8, 12),
                 KIND_SHARD, 1.0, chunk=2, n_chunks=4)
 
 
@@ -184,7 +185,7 @@ def _duplicate(scene, root):
 
 
 def _other_chunking(scene, root):
-    write_block(root / "shard-0001-of-0002.h5", scene, 8, 16, fake_items(scene, 8, 16),
+    write_item_file(root / "shard-0001-of-0002.h5", scene, 8, 16, fake_items(scene, 8, 16),
                 KIND_SHARD, 1.0, chunk=1, n_chunks=2)
 
 

@@ -182,13 +182,13 @@ def show(results):
     outputs.save_maps), get a short description."""
     import numpy as np
 
-    from ..storage.store import CorruptFile, StoreError, read_block, read_store
+    from ..storage.store import CorruptFile, StoreError, read_item_file, read_store
 
     try:
         view = read_store(results)
     except StoreError as store_exc:
         try:
-            b = read_block(results, with_data=False)
+            b = read_item_file(results, with_data=False)
         except CorruptFile:
             lines = _describe_map_file(results)
             if lines is None:

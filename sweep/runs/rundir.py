@@ -33,8 +33,8 @@ from ..outputs import (
 from ..config.parse import looks_like_config, scene_from_frozen
 from ..config.scene import Scene
 from ..storage.store import (
-    KIND_SHARD, Block, CorruptFile, StoreError, file_kind, first_line, read_block, write_bytes,
-    write_store,
+    KIND_SHARD, CorruptFile, ItemFile, StoreError, file_kind, first_line, read_item_file,
+    write_bytes, write_store,
 )
 
 
@@ -264,12 +264,12 @@ def scan_shards(root: Path) -> DirStatus:
 
     by_chunk: dict[int, list[ShardState]] = {}
     stray: list[ShardState] = []
-    readable: list[Block] = []
+    readable: list[ItemFile] = []
     for p in files:
         m = _SHARD_RE.match(p.name)
         name_chunk, name_n = int(m.group(1)), int(m.group(2))
         try:
-            b = read_block(p, with_data=False)
+            b = read_item_file(p, with_data=False)
         except CorruptFile as exc:
             st = ShardState(name_chunk, "corrupt", p, str(exc))
             (by_chunk.setdefault(name_chunk, []) if name_n == n_chunks else stray).append(st)
@@ -346,27 +346,27 @@ def merge_shards(root: Path, out: Path, overwrite: bool = False,
                             f" ({s.path.name})" if s.path else "") for s in bad)
         raise StoreError(f"cannot merge {root}: {len(bad)} of {status.n_chunks} shards not usable: "
                          f"{desc}")
-    scene = scene_from_frozen(read_block(status.shards[0].path, with_data=False).frozen)
+    scene = scene_from_frozen(read_item_file(status.shards[0].path, with_data=False).frozen)
     # the store is written a shard and a part at a time: the largest shard counts, not the sweep
     check_memory_need(write_bytes(scene, max(s.range[1] - s.range[0] for s in status.shards)),
                       f"the merge of {root}", "merge on a machine with more memory")
     with claim_output(out, overwrite=overwrite, wait=wait):
         # without their data: the store is written from one shard at a time (write_store)
-        blocks = [read_block(s.path, with_data=False) for s in status.shards]
-        scene = scene_from_frozen(blocks[0].frozen)
-        for b in blocks:
-            if (b.config_hash, b.version) != (scene.config_hash, blocks[0].version):
+        item_files = [read_item_file(s.path, with_data=False) for s in status.shards]
+        scene = scene_from_frozen(item_files[0].frozen)
+        for b in item_files:
+            if (b.config_hash, b.version) != (scene.config_hash, item_files[0].version):
                 raise StoreError(f"cannot merge {root}: {b.path.name} has config "
                                  f"{b.config_hash[:12]} / version {b.version}, "
-                                 f"{blocks[0].path.name} has {scene.config_hash[:12]} / "
-                                 f"{blocks[0].version}")
-        if blocks[0].version != __version__:
-            raise StoreError(f"cannot merge {root}: shards written by sweep {blocks[0].version}, "
-                             f"this is sweep {__version__}")
-        compute = sum(b.compute_seconds for b in blocks)
+                                 f"{item_files[0].path.name} has {scene.config_hash[:12]} / "
+                                 f"{item_files[0].version}")
+        if item_files[0].version != __version__:
+            raise StoreError(f"cannot merge {root}: shards written by sweep "
+                             f"{item_files[0].version}, this is sweep {__version__}")
+        compute = sum(b.compute_seconds for b in item_files)
         maps_dir = RunDir(root).maps
         saved = sorted(p.name for p in maps_dir.glob("*.h5")) if maps_dir.is_dir() else []
-        write_store(out, scene, blocks, timings=dict(
+        write_store(out, scene, item_files, timings=dict(
             compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
             created_by=f"sweep merge of {status.n_chunks} shards",
@@ -393,10 +393,10 @@ def prepare_parts_dir(parts_dir: Path, scene: Scene, start: int, stop: int) -> l
     else:
         write_json_atomic(manifest, dict(item_start=start, item_stop=stop, **scene.frozen()))
     remove_stale_temporaries(parts_dir, owned=True)
-    blocks = []
+    item_files = []
     for p in sorted(parts_dir.glob(f"{PART_PREFIX}*.h5")):
         try:
-            b = read_block(p, with_data=False)
+            b = read_item_file(p, with_data=False)
         except CorruptFile as exc:
             print(f"sweep: discarding unreadable part {p.name}: {exc}", file=sys.stderr)
             with os_errors_named(p, "cannot remove"):
@@ -406,8 +406,8 @@ def prepare_parts_dir(parts_dir: Path, scene: Scene, start: int, stop: int) -> l
                 b.start < start or b.stop > stop:
             raise StoreError(f"{p}: a part of another sweep in this work directory; delete "
                              f"{parts_dir} or pass --restart")
-        blocks.append(b)
-    return blocks
+        item_files.append(b)
+    return item_files
 
 
 def _short(v) -> str:

@@ -32,8 +32,8 @@ from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_pat
                      prepare_parts_dir)
 from ..config.scene import Scene
 from ..storage.store import (
-    KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, assemble_manipulation, read_block,
-    read_store, write_block, write_store,
+    KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, assemble_manipulation, read_item_file,
+    read_store, write_item_file, write_store,
 )
 
 #: Environment variables that may carry the chunk index of an array job, with the index of their
@@ -148,10 +148,10 @@ def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bo
               desc: str | None = None) -> tuple[list, int, float]:
     """Compute every missing sub-chunk of items [start, stop) into `parts_dir`.
     Returns (part blocks, maps computed now, wall seconds of the compute)."""
-    blocks = prepare_parts_dir(parts_dir, scene, start, stop)
+    item_files = prepare_parts_dir(parts_dir, scene, start, stop)
     n_w = len(scene.values["w"])
     size = scene.sub_chunk_cells or scene.group_size
-    todo = [r for gap in missing_ranges(start, stop, [b.range for b in blocks])
+    todo = [r for gap in missing_ranges(start, stop, [b.range for b in item_files])
             for r in sub_ranges(gap[0], gap[1], size, scene.group_size)]
     done_maps = (stop - start - sum(b - a for a, b in todo)) * n_w
     if todo:  # (before the progress bar: its rate and ETA are the computation's alone)
@@ -170,14 +170,14 @@ def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bo
                 data = compute_items(scene, a, b)
             seconds = time.perf_counter() - t
             path = part_path(parts_dir, a, b)
-            write_block(path, scene, a, b, data, KIND_PART, compute_seconds=seconds,
+            write_item_file(path, scene, a, b, data, KIND_PART, compute_seconds=seconds,
                         manipulation=manipulation)
-            blocks.append(read_block(path, with_data=False))
+            item_files.append(read_item_file(path, with_data=False))
             computed += (b - a) * n_w
             bar.update((b - a) * n_w)
     finally:
         bar.close()
-    return blocks, computed, time.perf_counter() - t0
+    return item_files, computed, time.perf_counter() - t0
 
 
 def _progress_bar(total: int, initial: int, desc: str, enabled: bool):
@@ -221,14 +221,14 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
         if restart and paths.parts.exists():
             shutil.rmtree(paths.parts)
         with numba_threads(threads) as n_threads:
-            blocks, computed, _ = run_range(scene, 0, scene.n_items, paths.parts, progress)
+            item_files, computed, _ = run_range(scene, 0, scene.n_items, paths.parts, progress)
             saved = save_maps(scene, 0, scene.n_items, paths.maps)
-        compute = sum(b.compute_seconds for b in blocks)
+        compute = sum(b.compute_seconds for b in item_files)
         wall = time.perf_counter() - t_wall
         extra = dict(threads=n_threads)
         if saved:
             extra.update(saved_maps=saved, saved_maps_dir=str(paths.maps))
-        write_store(out, scene, blocks, timings=dict(
+        write_store(out, scene, item_files, timings=dict(
             wall_seconds=wall, compute_seconds=compute,
             maps_per_second=scene.n_maps / compute if compute > 0 else 0.0),
             created_by="sweep run", extra_attrs=extra)
@@ -262,7 +262,7 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
                       what=f"chunk {chunk} of {rundir.root}"):
         if shard.exists():
             try:
-                b = read_block(shard, with_data=False)
+                b = read_item_file(shard, with_data=False)
                 if (b.config_hash, b.version, b.range) == (scene.config_hash, __version__,
                                                            (start, stop)):
                     return RunResult(shard, n_maps, 0, time.perf_counter() - t_wall,
@@ -274,14 +274,14 @@ def run_chunk(scene: Scene, out_dir: Path, chunk: int, n_chunks: int, threads: i
         if restart and parts.exists():
             shutil.rmtree(parts)
         with numba_threads(threads):
-            blocks, computed, _ = run_range(scene, start, stop, parts, progress,
+            item_files, computed, _ = run_range(scene, start, stop, parts, progress,
                                             desc=f"{scene.name} {chunk}/{n_chunks}")
             save_maps(scene, start, stop, rundir.maps)
-        compute = sum(b.compute_seconds for b in blocks)
-        data = assemble(scene, blocks, start, stop)
-        write_block(shard, scene, start, stop, data, KIND_SHARD, compute_seconds=compute,
+        compute = sum(b.compute_seconds for b in item_files)
+        data = assemble(scene, item_files, start, stop)
+        write_item_file(shard, scene, start, stop, data, KIND_SHARD, compute_seconds=compute,
                     chunk=chunk, n_chunks=n_chunks,
-                    manipulation=assemble_manipulation(scene, blocks, start, stop))
+                    manipulation=assemble_manipulation(scene, item_files, start, stop))
         shutil.rmtree(parts, ignore_errors=True)
         with contextlib.suppress(OSError):
             parts.parent.rmdir()   # only if no other shard is in progress

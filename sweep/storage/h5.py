@@ -197,3 +197,53 @@ def read_json_attr(obj, key: str):
 
 def iter_names(values: Iterable) -> list[str]:
     return [v.decode() if isinstance(v, bytes) else str(v) for v in values]
+
+
+def file_differences(path_a, path_b, ignore: Sequence[str] = ()) -> list[str]:
+    """What differs between the contents of two HDF5 files (empty: the same): every group and
+    dataset (type, shape, chunks, compression, dimension scales, the bytes of its values) and
+    every attribute, except the root attributes `ignore`."""
+    out: list[str] = []
+
+    def attrs(obj) -> dict:
+        return {k: v for k, v in obj.attrs.items() if k not in ("DIMENSION_LIST",
+                                                                 "REFERENCE_LIST")}
+
+    def same(x, y) -> bool:
+        x, y = np.asarray(x), np.asarray(y)
+        if x.dtype != y.dtype or x.shape != y.shape:
+            return False
+        return x.tolist() == y.tolist() if x.dtype.kind == "O" else x.tobytes() == y.tobytes()
+
+    def visit(a, b, where: str) -> None:
+        if set(a) != set(b):
+            out.append(f"{where or '/'}: members {sorted(set(a) ^ set(b))} in one file only")
+        ka, kb = attrs(a), attrs(b)
+        skip = set(ignore) if where == "" else set()
+        for k in sorted((set(ka) | set(kb)) - skip):
+            if k not in ka or k not in kb or not same(ka[k], kb[k]):
+                out.append(f"{where or '/'}: attribute {k} differs")
+        for name in sorted(set(a) & set(b)):
+            x, y = a[name], b[name]
+            here = f"{where}/{name}"
+            if isinstance(x, h5py.Group) and isinstance(y, h5py.Group):
+                visit(x, y, here)
+                continue
+            if not (isinstance(x, h5py.Dataset) and isinstance(y, h5py.Dataset)):
+                out.append(f"{here}: a dataset in one file only")
+                continue
+            layout = [(d.dtype, d.shape, d.chunks, d.compression, d.compression_opts, d.shuffle,
+                       d.fletcher32, [[s.name for s in dim.values()] for dim in d.dims])
+                      for d in (x, y)]
+            if layout[0] != layout[1]:
+                out.append(f"{here}: layout {layout[0]} and {layout[1]}")
+            elif not same(x[...], y[...]):
+                out.append(f"{here}: values differ")
+            ka, kb = attrs(x), attrs(y)
+            for k in sorted(set(ka) | set(kb)):
+                if k not in ka or k not in kb or not same(ka[k], kb[k]):
+                    out.append(f"{here}: attribute {k} differs")
+
+    with h5py.File(path_a, "r") as fa, h5py.File(path_b, "r") as fb:
+        visit(fa, fb, "")
+    return out

@@ -35,7 +35,8 @@ from .. import __version__
 from ..grid import SCENARIO_A_COMMANDS, SCENARIO_A_EXTREMES
 from ..config.chunks import Range, exact_cover
 from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store)
-                 FILL_CACHE_BYTES, atomic_amend, atomic_file, create_variable, iter_names,
+                 FILL_CACHE_BYTES, atomic_amend, atomic_file, create_variable, file_differences,
+                 iter_names,
                  provenance, read_json_attr, set_root_attrs, write_coordinate, write_variable)
 from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChunk, fold_part,
                                     part_keys, part_rows, pose_cuts, read_part, usage_of)
@@ -70,7 +71,7 @@ GRID_NOTE = ("each map uses its own design's whole-reach grid (MODEL 8): x = i h
 # Blocks (parts and shards)
 # ---------------------------------------------------------------------------------------------
 @dataclass
-class Block:
+class ItemFile:
     path: Path
     kind: str
     start: int
@@ -89,7 +90,7 @@ class Block:
         return (self.start, self.stop)
 
 
-def write_block(path: Path, scene: Scene, start: int, stop: int, data: np.ndarray, kind: str,
+def write_item_file(path: Path, scene: Scene, start: int, stop: int, data: np.ndarray, kind: str,
                 compute_seconds: float, chunk: int | None = None,
                 n_chunks: int | None = None,
                 manipulation: ManipulationChunk | None = None) -> None:
@@ -126,7 +127,7 @@ def write_block(path: Path, scene: Scene, start: int, stop: int, data: np.ndarra
         set_root_attrs(f, attrs)
 
 
-def read_block(path: Path, with_data: bool = True) -> Block:
+def read_item_file(path: Path, with_data: bool = True) -> ItemFile:
     """Read and check a block file; raises CorruptFile if it is unreadable or inconsistent.
     The data is always read (the Fletcher-32 checksums are checked on read)."""
     path = Path(path)
@@ -140,7 +141,7 @@ def read_block(path: Path, with_data: bool = True) -> Block:
             data = f["summaries"][...]
             fields = iter_names(f["field"][...])
             frozen = read_json_attr(f, "frozen_config")
-            block = Block(path=path, kind=kind, start=start, stop=stop,
+            block = ItemFile(path=path, kind=kind, start=start, stop=stop,
                           config_hash=_str(a["config_hash"]), version=_str(a["sweep_version"]),
                           frozen=frozen, compute_seconds=float(a["compute_seconds"]),
                           chunk=int(a["chunk"]) if "chunk" in a else None,
@@ -201,13 +202,13 @@ def group_slab(scene: Scene, group: int, dims: Sequence[str]) -> tuple[slice, ..
     return tuple(slice(int(at[d]), int(at[d]) + 1) if d in at else slice(None) for d in dims)
 
 
-def iter_groups(scene: Scene, blocks: Sequence[Block], read) -> Iterator[tuple[int, list]]:
+def iter_groups(scene: Scene, item_files: Sequence[ItemFile], read) -> Iterator[tuple[int, list]]:
     """(group index, arrays of its items) of every geometry group in item order, from blocks
     that tile every item (in item order), reading one block at a time: `read(block)` gives
     arrays whose first axis is the block's items. A group split between blocks is gathered."""
     size = scene.group_size
     pending = None
-    for b in blocks:
+    for b in item_files:
         arrays = read(b)
         i = b.start
         while i < b.stop:
@@ -227,7 +228,7 @@ def iter_groups(scene: Scene, blocks: Sequence[Block], read) -> Iterator[tuple[i
                 pending = None
 
 
-def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict,
+def write_store(path: Path, scene: Scene, item_files: Sequence[ItemFile], timings: dict,
                 created_by: str, extra_attrs: dict | None = None) -> None:
     """The results store (see the module docstring) of blocks that tile every item, written
     atomically; with the manipulation metric's variables (from the blocks' files) when the scene
@@ -237,7 +238,7 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
     one geometry group at a time, reading one block at a time; the manipulation reductions are
     merged one part at a time; the file is written as it grows (`atomic_file(stream=True)`).
     The content is bit for bit that of the assembled arrays written at once."""
-    blocks = _in_item_order(blocks, 0, scene.n_items)
+    item_files = _in_item_order(item_files, 0, scene.n_items)
     dims = scene.store_dims
     fields = [n for n in SUMMARY_FIELDS if summary_field_on(n, scene.effects.names_on())]
     with atomic_file(path, stream=True) as f:
@@ -264,7 +265,7 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
                 out[name] = create_variable(f, name, [scene.axis_len(d) for d in A_DIMS],
                                             np.float64, A_DIMS, MANIPULATION_ATTRS[name])
         h2 = scene.h * scene.h
-        for group, items in iter_groups(scene, blocks, partial(_block_items, scene)):
+        for group, items in iter_groups(scene, item_files, partial(_block_items, scene)):
             arrays = store_arrays(scene, items[0], one_group=True)
             at = group_slab(scene, group, dims)
             for name in fields:
@@ -276,7 +277,7 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
                     out[name][at] = value
                     out[name + "_area"][at] = value * h2
         if scene.manipulation:
-            for name, value in part_arrays(scene, blocks).items():
+            for name, value in part_arrays(scene, item_files).items():
                 write_variable(f, name, value, PART_ARRAY_DIMS.get(name, ("r", "mu")),
                                MANIPULATION_ATTRS[name])
         attrs = dict(
@@ -313,19 +314,19 @@ def write_store(path: Path, scene: Scene, blocks: Sequence[Block], timings: dict
         set_root_attrs(f, attrs)
 
 
-def _in_item_order(blocks: Sequence[Block], start: int, stop: int) -> list[Block]:
+def _in_item_order(item_files: Sequence[ItemFile], start: int, stop: int) -> list[ItemFile]:
     """The blocks that tile items [start, stop) exactly, in item order; StoreError if none do."""
-    pick = exact_cover(start, stop, [b.range for b in blocks])
+    pick = exact_cover(start, stop, [b.range for b in item_files])
     if pick is None:
-        have = sorted(b.range for b in blocks)
+        have = sorted(b.range for b in item_files)
         raise StoreError(f"blocks {have} do not cover items {start}-{stop}")
-    return [blocks[i] for i in pick]
+    return [item_files[i] for i in pick]
 
 
-def _block_items(scene: Scene, b: Block) -> list[np.ndarray]:
+def _block_items(scene: Scene, b: ItemFile) -> list[np.ndarray]:
     """What the store needs of a block per item: its summaries and, with the manipulation
     metric, its Scenario A metrics (and Scenario C's, when the scene has it)."""
-    out = [b.data if b.data is not None else read_block(b.path).data]
+    out = [b.data if b.data is not None else read_item_file(b.path).data]
     if scene.manipulation:
         names = ("a_metric", "c_metric") if scene.scenario_c else ("a_metric",)
         with _manipulation_group(b.path) as g:
@@ -405,54 +406,9 @@ RUN_ATTRS = ("created_by", "created_utc", "wall_seconds", "compute_seconds", "ma
              "threads", "saved_maps_dir", "refine_created_utc", "refine_level_seconds")
 
 
-def store_differences(path_a: Path, path_b: Path, ignore: Sequence[str] = RUN_ATTRS) -> list[str]:
-    """What differs between the contents of two HDF5 files (empty: the same): every group and
-    dataset (type, shape, chunks, compression, dimension scales, the bytes of its values) and
-    every attribute, except the root attributes `ignore`."""
-    out: list[str] = []
-
-    def attrs(obj) -> dict:
-        return {k: v for k, v in obj.attrs.items() if k not in ("DIMENSION_LIST",
-                                                                 "REFERENCE_LIST")}
-
-    def same(x, y) -> bool:
-        x, y = np.asarray(x), np.asarray(y)
-        if x.dtype != y.dtype or x.shape != y.shape:
-            return False
-        return x.tolist() == y.tolist() if x.dtype.kind == "O" else x.tobytes() == y.tobytes()
-
-    def visit(a, b, where: str) -> None:
-        if set(a) != set(b):
-            out.append(f"{where or '/'}: members {sorted(set(a) ^ set(b))} in one file only")
-        ka, kb = attrs(a), attrs(b)
-        skip = set(ignore) if where == "" else set()
-        for k in sorted((set(ka) | set(kb)) - skip):
-            if k not in ka or k not in kb or not same(ka[k], kb[k]):
-                out.append(f"{where or '/'}: attribute {k} differs")
-        for name in sorted(set(a) & set(b)):
-            x, y = a[name], b[name]
-            here = f"{where}/{name}"
-            if isinstance(x, h5py.Group) and isinstance(y, h5py.Group):
-                visit(x, y, here)
-                continue
-            if not (isinstance(x, h5py.Dataset) and isinstance(y, h5py.Dataset)):
-                out.append(f"{here}: a dataset in one file only")
-                continue
-            layout = [(d.dtype, d.shape, d.chunks, d.compression, d.compression_opts, d.shuffle,
-                       d.fletcher32, [[s.name for s in dim.values()] for dim in d.dims])
-                      for d in (x, y)]
-            if layout[0] != layout[1]:
-                out.append(f"{here}: layout {layout[0]} and {layout[1]}")
-            elif not same(x[...], y[...]):
-                out.append(f"{here}: values differ")
-            ka, kb = attrs(x), attrs(y)
-            for k in sorted(set(ka) | set(kb)):
-                if k not in ka or k not in kb or not same(ka[k], kb[k]):
-                    out.append(f"{here}: attribute {k} differs")
-
-    with h5py.File(path_a, "r") as fa, h5py.File(path_b, "r") as fb:
-        visit(fa, fb, "")
-    return out
+def store_differences(path_a: Path, path_b: Path) -> list[str]:
+    """What differs between two stores' contents (h5.file_differences), their RUN_ATTRS aside."""
+    return file_differences(path_a, path_b, RUN_ATTRS)
 
 
 def part_dims(scene: Scene) -> tuple[str, ...]:
@@ -521,7 +477,7 @@ def read_manipulation(path: Path) -> ManipulationChunk:
         return ManipulationChunk.read(g)
 
 
-def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
+def assemble_manipulation(scene: Scene, item_files: Sequence[ItemFile], start: int = 0,
                           stop: int | None = None) -> ManipulationChunk | None:
     """The manipulation data of items [start, stop), merged from blocks that tile it; None when
     the scene has no manipulation output."""
@@ -530,7 +486,7 @@ def assemble_manipulation(scene: Scene, blocks: Sequence[Block], start: int = 0,
     stop = scene.n_items if stop is None else stop
     # one block at a time (in item order): the merged data of the range and one block are held
     return ManipulationChunk.merge_stream(read_manipulation(b.path)
-                                          for b in _in_item_order(blocks, start, stop))
+                                          for b in _in_item_order(item_files, start, stop))
 
 
 MANIPULATION_ATTRS = {
@@ -594,7 +550,7 @@ PART_ARRAY_DIMS = {"parameter_usage": ("r", "mu", "parameter"),
 MERGE_ROWS = 1 << 16
 
 
-def part_arrays(scene: Scene, blocks: Sequence[Block]) -> dict[str, np.ndarray]:
+def part_arrays(scene: Scene, item_files: Sequence[ItemFile]) -> dict[str, np.ndarray]:
     """The store's Scenario B variables (per part) from the reductions in the blocks' files
     (blocks that tile every item, in item order).
 
@@ -612,8 +568,8 @@ def part_arrays(scene: Scene, blocks: Sequence[Block]) -> dict[str, np.ndarray]:
     n_positive = np.zeros((n_r, n_mu), dtype=np.int32)
     usage = np.full((n_r, n_mu, len(PARAMETER_NAMES)), np.nan)
     search = np.array([max(scene.values[p]) - min(scene.values[p]) for p in PARAMETER_NAMES])
-    holders: dict[tuple[int, int], list[Block]] = {}
-    for block in blocks:
+    holders: dict[tuple[int, int], list[ItemFile]] = {}
+    for block in item_files:
         with _manipulation_group(block.path) as g:
             for key in part_keys(g):
                 holders.setdefault(key, []).append(block)
@@ -639,7 +595,7 @@ def part_arrays(scene: Scene, blocks: Sequence[Block]) -> dict[str, np.ndarray]:
                 manipulation_b_pose_value=pose_value)
 
 
-def _merged_by_poses(held_by: Sequence[Block], key: tuple[int, int], n_poses: int):
+def _merged_by_poses(held_by: Sequence[ItemFile], key: tuple[int, int], n_poses: int):
     """The reductions of part `key` (of a lattice of `n_poses` poses) merged over the blocks
     holding it, one range of poses after another, each range's points from every block adding
     up to at most MERGE_ROWS (or one pose)."""
@@ -685,14 +641,14 @@ def _write_manipulation_coordinates(f, scene: Scene) -> None:
                      dict(long_name="pose column i: part centre x = i h", units="1"))
 
 
-def assemble(scene: Scene, blocks: Sequence[Block], start: int = 0,
+def assemble(scene: Scene, item_files: Sequence[ItemFile], start: int = 0,
              stop: int | None = None) -> np.ndarray:
     """Summaries of items [start, stop) from blocks that tile it exactly."""
     stop = scene.n_items if stop is None else stop
     out = np.empty((stop - start, len(scene.values["w"]), len(SUMMARY_FIELDS)), dtype=np.float64)
-    for b in _in_item_order(blocks, start, stop):
+    for b in _in_item_order(item_files, start, stop):
         out[b.start - start:b.stop - start] = b.data if b.data is not None else \
-            read_block(b.path).data
+            read_item_file(b.path).data
     return out
 
 
