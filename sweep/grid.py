@@ -28,7 +28,7 @@ MAX_POINTS_DEFAULT = 200_000_000
 def map_bytes_per_point(forces: bool = False, written: bool = False) -> int:
     """Bytes per grid point of one map: its arrays (with the forces when asked for) and, when
     the map is `written`, its file too, which is rendered in memory before it is written
-    (sweep.outputs: about the arrays once more)."""
+    (sweep.files: about the arrays once more)."""
     arrays = BYTES_PER_POINT + (FORCE_BYTES_PER_POINT if forces else 0)
     return 2 * arrays if written else arrays
 

@@ -26,7 +26,7 @@ from click.testing import CliRunner
 
 from sweep.runs import runner
 from sweep.cli import main
-from sweep.outputs import OutputLock
+from sweep.files import OutputLock
 from sweep_cases import tiny, write_config
 
 ROOT = Path(__file__).resolve().parents[1]

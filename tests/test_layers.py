@@ -24,7 +24,7 @@ PACKAGE = Path(__file__).resolve().parent.parent / "sweep"
 #: (a scene: what a run is) needs the vocabulary alone, so it sits below the computation: sizing
 #: a run in memory or checking a grid never reaches into kernels.
 LAYERS = (
-    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.outputs")),
+    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.files")),
     ("config", ("sweep.config",)),
     ("kernels", ("sweep.kernels",)),
     ("one map / a batch of maps", ("sweep.compute",)),
@@ -181,9 +181,9 @@ def test_the_graph_reader_sees_every_form_of_import(tmp_path):
                                            "sweep"}
 
 
-def renames_outside(allowed: str = "sweep.outputs", root: Path = PACKAGE) -> list[str]:
+def renames_outside(allowed: str = "sweep.files", root: Path = PACKAGE) -> list[str]:
     """Modules other than `allowed` that rename files into place (`os.replace`, `os.rename`,
-    `shutil.move`): every file is written through the one atomic writer, `sweep/outputs.py`."""
+    `shutil.move`): every file is written through the one atomic writer, `sweep/files.py`."""
     found = []
     for name, path in module_names(root).items():
         for node in ast.walk(ast.parse(path.read_text())):
@@ -202,7 +202,7 @@ def test_one_atomic_writer(tmp_path):
     pkg = tmp_path / "sweep"
     pkg.mkdir()
     (pkg / "__init__.py").write_text("")
-    (pkg / "outputs.py").write_text("import os\ndef w(a, b):\n    os.replace(a, b)\n")
+    (pkg / "files.py").write_text("import os\ndef w(a, b):\n    os.replace(a, b)\n")
     (pkg / "mine.py").write_text("import os\ndef w(a, b):\n    os.replace(a, b)\n")
     assert renames_outside(root=pkg) == ["sweep.mine:3"]
 

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from sweep.compute import manipulation as manip
 from sweep.compute.batch import SUMMARY_FIELDS
 from sweep.config.parse import load_scene, scene_from_dict
-from sweep.outputs import OutputError, SpooledTemp, atomic_stream
+from sweep.files import OutputError, SpooledTemp, atomic_stream
 from sweep.runs import runner
 from sweep.runs.rundir import merge_shards, scan_shards
 from sweep.schema import COUNT_FIELDS

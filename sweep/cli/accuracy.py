@@ -38,7 +38,7 @@ def accuracy(config, n_sample, out, maps, progress):
     from ..runs.accuracy import (DEFAULT_SAMPLE, check_sample, parse_witness, run_study,
                                  work_dir_key)
     from ..model import ModelInputError
-    from ..outputs import make_parent
+    from ..files import make_parent
 
     given = n_sample is not None
     n_sample = DEFAULT_SAMPLE if n_sample is None else n_sample

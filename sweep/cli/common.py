@@ -59,7 +59,7 @@ def _user_error_types() -> tuple[type, ...]:
     # Imported here, not at the top: only modules already loaded can have raised these.
     types: list[type] = []
     for module, name in (("sweep.model", "ModelInputError"), ("sweep.storage.store", "StoreError"),
-                         ("sweep.outputs", "OutputError")):
+                         ("sweep.files", "OutputError")):
         mod = sys.modules.get(module)
         if mod is not None:
             types.append(getattr(mod, name))
@@ -101,7 +101,7 @@ def user_errors():
         except OSError as exc:
             if isinstance(exc, _user_error_types()):
                 raise UserError(str(exc)) from None
-            from ..outputs import os_error_message
+            from ..files import os_error_message
 
             raise UserError(os_error_message(exc, exc.filename or "sweep", "failed")) from None
         except Exception as exc:

@@ -104,7 +104,7 @@ def map_command(l1, l2, r1, r2, w, r, mu, mu_left, mu_right, h, xlim, ylim, f_le
         Command, Design, Grid, Limits, ModelInputError, Part, validate_finger_friction,
         validate_inputs, validate_scene,
     )
-    from ..outputs import check_output_file, claim_output
+    from ..files import check_output_file, claim_output
     from ..runs.runner import RunError, numba_threads, resolve_threads
 
     design = Design(l1, l2, r1, r2, w)

@@ -40,7 +40,7 @@ def report(stores, out, top_k, overwrite, wait):
     import json
 
     from ..compute.warm import ensure_compiled
-    from ..outputs import OutputLock, make_parent
+    from ..files import OutputLock, make_parent
     from ..report.build import ALL_FILES, build_report
     from ..report.compare import FILES, build_comparison, comparison_identity, open_pair
     from ..report.data import MARKER, identity, resolve_top_k

@@ -47,7 +47,7 @@ def run(config, out, chunk, chunks, threads, progress, restart, overwrite, keep_
     SLURM_ARRAY_TASK_ID or PBS_ARRAY_INDEX (0..N-1), SGE_TASK_ID or LSB_JOBINDEX (1..N).
     """
     from ..runs import runner
-    from ..outputs import OutputError
+    from ..files import OutputError
     from ..runs.rundir import RunDir, SingleRun
 
     scene = config

@@ -60,7 +60,7 @@ def slurm_command(config, chunks, out, parallel, cpus_per_task, time_limit, mem,
     """
     from ..runs import slurm
     from ..config.chunks import chunk_ranges
-    from ..outputs import os_errors_named
+    from ..files import os_errors_named
     from ..runs.rundir import RunDir, ensure_manifest
 
     scene = config

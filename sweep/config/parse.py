@@ -15,7 +15,7 @@ from pathlib import Path
 import yaml
 
 from ..grid import cell_bytes, cell_extent
-from ..outputs import StoreError
+from ..files import StoreError
 from ..model import (DEFAULT_MU_LOW, EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE,
                      ROOT_TOL_RANGE, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
                      ModelInputError, Outputs, Part, validate_inputs)

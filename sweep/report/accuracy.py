@@ -8,7 +8,7 @@ import os
 from pathlib import Path
 
 from ..model import TRAJECTORY_METHODS
-from ..outputs import write_bytes_atomic, write_text_atomic
+from ..files import write_bytes_atomic, write_text_atomic
 from ..runs.study import MIN_SAVING, REFERENCE_STEP, REFERENCE_TOL, Study, design_cells, parts
 
 

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..outputs import text_bytes
+from ..files import text_bytes
 from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, best_columns,
                      refinement_rows)
 from . import caging, friction, manipulation, tip, usage

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..outputs import write_bytes_atomic
+from ..files import write_bytes_atomic
 from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
 from ..storage.h5 import StoreError
 

@@ -43,7 +43,7 @@ from ..kernels.hand import finger_polyline
 from ..kernels.meeting_search import no_slide_context
 from ..model import (EJECT, END_CAGED, INFEASIBLE, REACHED, STREAMLINE_STEP, UNREACHED,
                      VERTEX_POINT)
-from ..outputs import write_bytes_atomic
+from ..files import write_bytes_atomic
 
 # How many trajectories to draw, roughly (starting points on a regular sub-lattice of the grid).
 TARGET_TRAJECTORIES = 90
@@ -519,7 +519,7 @@ def draw_map_panel(ax, m, title: str | None = None, colorbar_label: str | None =
 
 
 def plot_map(m, path) -> Path:
-    """Write a PNG picture of map `m` to `path` atomically (`sweep.outputs.write_bytes_atomic`:
+    """Write a PNG picture of map `m` to `path` atomically (`sweep.files.write_bytes_atomic`:
     rendered in memory, temporary name beside the target, fsync, rename; nothing left behind if
     anything fails)."""
     buffer = io.BytesIO()

@@ -45,7 +45,7 @@ import numpy as np
 
 from ..compute.batch import summarize_cells
 from ..model import TRAJECTORY_METHODS, Accuracy, ModelInputError
-from ..outputs import write_bytes_atomic
+from ..files import write_bytes_atomic
 from ..config.scene import Scene
 from ..schema import SUMMARY_FIELDS
 from ..storage.refined import ROLE

@@ -71,7 +71,7 @@ from .. import __version__
 from ..compute.batch import caging_areas, cell_keys
 from ..compute.threads import numba_threads
 from ..compute.warm import ensure_compiled
-from ..outputs import claim_output, remove_stale_temporaries, write_bytes_atomic
+from ..files import claim_output, remove_stale_temporaries, write_bytes_atomic
 from .rundir import read_json, refine_dir
 
 from ..config.scene import DESIGN_KEYS, RefineSettings, Scene, grid_points
@@ -252,7 +252,7 @@ def _load_batch(path: Path, keys: np.ndarray):
 def prepare_work_dir(work: Path, identity: dict) -> None:
     """Create the work directory, or empty it when it holds another refinement's files. The
     caller holds the store's lock, so every temporary in it is a killed writer's."""
-    from ..outputs import write_json_atomic
+    from ..files import write_json_atomic
 
     manifest = work / WORK_MANIFEST
     if manifest.exists():

@@ -2,7 +2,7 @@
 directory's manifest, shards, status and merge.
 
 File formats (what a block or a store holds) are `sweep.storage.store`'s; how a file is locked,
-written atomically and cleaned up is `sweep.outputs`'. This module decides which files a run has and
+written atomically and cleaned up is `sweep.files`'. This module decides which files a run has and
 what state they are in:
 
 - one machine (`SingleRun`): ``RESULTS``, its work directory ``RESULTS.parts/`` (one part file
@@ -27,7 +27,7 @@ from pathlib import Path
 from .. import __version__
 from ..config.chunks import Range, chunk_ranges
 from ..grid import check_memory_need
-from ..outputs import (
+from ..files import (
     OutputLock, claim_output, os_errors_named, remove_stale_temporaries, write_json_atomic,
 )
 from ..config.parse import looks_like_config, scene_from_frozen

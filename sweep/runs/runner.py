@@ -27,7 +27,7 @@ from ..compute.threads import check_threads, numba_threads
 from ..storage import mapfile
 from ..config.chunks import chunk_ranges, missing_ranges, sub_ranges
 from ..model import Design, Grid, Part
-from ..outputs import claim_output, remove_stale_temporaries
+from ..files import claim_output, remove_stale_temporaries
 from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_path,
                      prepare_parts_dir)
 from ..config.scene import Scene
@@ -197,7 +197,7 @@ def run_single(scene: Scene, out: Path, threads: int | None = None, progress: bo
                keep_parts: bool = False, wait: bool = False) -> RunResult:
     """The whole sweep on this machine into the store `out`; resumes from `<out>.parts/`.
     Holds the lock of `out` throughout: a second run to the same store is refused at once
-    (`sweep.outputs.OutputError`) or, with `wait`, waits for the first."""
+    (`sweep.files.OutputError`) or, with `wait`, waits for the first."""
     out = Path(out)
     t_wall = time.perf_counter()
     paths = SingleRun(out)

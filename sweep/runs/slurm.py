@@ -16,7 +16,7 @@ import subprocess
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from ..outputs import write_text_atomic
+from ..files import write_text_atomic
 
 
 def sbatch_script(*, config: str, out_dir: str, n_chunks: int, job_name: str,
@@ -174,7 +174,7 @@ def check(script_text: str, sbatch: str = "sbatch") -> None:
 
 
 def write_script(path: Path, text: str) -> None:
-    """The script written atomically (the one writer of sweep.outputs)."""
+    """The script written atomically (the one writer of sweep.files)."""
     write_text_atomic(path, text)
 
 

@@ -3,7 +3,7 @@
 Every HDF5 file this package writes goes through `atomic_file`: built in memory (or, for a file
 that must not be held whole, `stream=True`, written piece by piece to its temporary), under a
 temporary name in the same directory and renamed into place only when complete
-(`sweep.outputs`), so a file with the final name is always whole. Dimensions are HDF5 dimension
+(`sweep.files`), so a file with the final name is always whole. Dimensions are HDF5 dimension
 scales, which `xarray.open_dataset(..., engine="h5netcdf")` reads as labelled coordinates.
 """
 from __future__ import annotations
@@ -22,14 +22,14 @@ import h5py
 import numpy as np
 
 from .. import __version__
-from ..outputs import (CorruptFile, StoreError,  # noqa: F401 (the errors of stored files)
+from ..files import (CorruptFile, StoreError,  # noqa: F401 (the errors of stored files)
                        atomic_stream, make_parent, write_bytes_atomic)
 
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike, mode: str = "w", stream: bool = False):
     """Yield a new h5py.File; it appears at `path` only if the block succeeds (temporary name,
-    fsync, rename: `sweep.outputs`).
+    fsync, rename: `sweep.files`).
 
     Built in memory and written at the end (`write_bytes_atomic`), or with `stream` written to
     its temporary as it grows (`atomic_stream`: memory stays flat however large the file). Both

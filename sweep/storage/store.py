@@ -1,7 +1,7 @@
 """File formats of a sweep: blocks (parts and shards) and the results store, written and read.
 
 Three kinds of HDF5 file, all written through `sweep.storage.h5.atomic_file` (a file with its final
-name is always complete, see `sweep.outputs`):
+name is always complete, see `sweep.files`):
 
 - *block* files hold the summaries of a contiguous range of work items
   (`sweep.config.scene.ITEM_ORDER`) at every width: variable ``summaries(item, w, field)`` (float64,
