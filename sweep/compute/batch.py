@@ -275,9 +275,10 @@ def _candidate_pose_values(candidate, part, widths, h, limits, accuracy, effects
 # ---------------------------------------------------------------------------------------------
 # Maps of the refinement stage: a few widths of many cells (sweep.runs.refine)
 # ---------------------------------------------------------------------------------------------
-def cell_keys(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
-    """Per map (part, design) of `keys`, its cell: (command, l1, l2, r1, r2, r index, mu index)
-    as a row of float64 (n, 7); maps of one cell share the finger field."""
+def commanded_cell_of_maps(designs: np.ndarray, parts: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """Per map (part, design) of `keys`, its cell with its command: (command, l1, l2, r1, r2,
+    r index, mu index) as a row of float64 (n, 7), a key (not a cell row of CELL_COLUMNS: the
+    part by its indices); maps with one key share the finger field."""
     p, d = parts[keys[:, 0]], designs[keys[:, 1]]
     return np.column_stack([p[:, 2], d[:, :4], p[:, 0], p[:, 1]]).astype(np.float64)
 
@@ -294,7 +295,7 @@ def caging_areas(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.
     out = np.empty(keys.shape[0])
     index: dict = {}
     which = np.array([index.setdefault(tuple(c), len(index))
-                      for c in cell_keys(designs, parts, keys)], dtype=np.int64)
+                      for c in commanded_cell_of_maps(designs, parts, keys)], dtype=np.int64)
     cells = np.array(list(index), dtype=np.float64).reshape(-1, 7)
     w_index = keys[:, 1] % scene.widths.size           # designs in store order: w fastest
     widths_of = [set() for _ in range(cells.shape[0])]

@@ -68,7 +68,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..compute.batch import caging_areas, cell_keys
+from ..compute.batch import caging_areas, commanded_cell_of_maps
 from ..compute.threads import numba_threads
 from ..compute.warm import ensure_compiled
 from ..files import claim_output, remove_stale_temporaries, write_bytes_atomic
@@ -184,7 +184,8 @@ def level_batches(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np
     """A level's maps in a fixed order, cut into batches of whole cells (all their maps of the
     level) of at most BATCH_POINTS grid points (at least one cell each). Cells with the same
     widths are consecutive (`compute_maps` makes one kernel call of them), largest first."""
-    cells, which = np.unique(cell_keys(designs, parts, keys), axis=0, return_inverse=True)
+    cells, which = np.unique(commanded_cell_of_maps(designs, parts, keys), axis=0,
+                             return_inverse=True)
     which = which.reshape(-1)
     r_vals = scene.values["r"]
     cost = np.zeros(cells.shape[0], dtype=np.int64)
