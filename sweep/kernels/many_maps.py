@@ -466,9 +466,11 @@ def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f
             stack = np.empty(ny * xs.shape[0], dtype=np.int64)
             hand = Hand(ws[k], f_left, f_right, h, finger.mu_s, finger.mu_s)
             settled = no_settled_fingers()
-            if collision:  # the settled fingers' links, as gather_fingers reads the shared field
-                settled = SettledFingers(True, links, cell_ncols[k] - palm_steps[k] - m_lo, -1,
-                                         -cell_ncols[k] - palm_steps[k] - m_lo, 1, memo[k],
+            if collision:  # the settled fingers' links, as gather_fingers reads the shared field:
+                # column c (world i = c - ncol) at offset -i - s (left), i - s (right), less m_lo
+                left_start = cell_ncols[k] - palm_steps[k] - m_lo
+                right_start = -cell_ncols[k] - palm_steps[k] - m_lo
+                settled = SettledFingers(True, links, left_start, -1, right_start, 1, memo[k],
                                          memo_read, memo_next)
             map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, no_forces,
                              stack, out[c, k], STABLE_POINTS, ALL_OUTPUTS, ALL_OUTPUTS, settled)
