@@ -36,7 +36,7 @@ def compiled_kernels(request):
     command does it (`sweep.compute.warm.ensure_compiled`: on an empty cache the maps' kernels
     here and the manipulation metric's in a second process at the same time, saying so in one
     line). Tests then load them from the cache; the few kernels only tests call (reference
-    searches, one position's outcome, the dense hull reduction's add and merge) compile when a
+    searches, one position's outcome, tests/incremental_hull.py) compile when a
     test first calls them."""
     if all(Path(str(item.fspath)).name in COMPUTE_FREE for item in request.session.items):
         return

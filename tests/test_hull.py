@@ -13,7 +13,8 @@ from hypothesis import given, settings, strategies as st
 from scipy.spatial import ConvexHull, QhullError
 
 from sweep.kernels.hull import convex_hull, inscribed_radius, orient
-from sweep.compute.manipulation import PAPER_SEARCH_RANGES, HullReduction
+from sweep.compute.manipulation import PAPER_SEARCH_RANGES
+from incremental_hull import IncrementalHull
 
 from profiles import LONG_PROPERTIES
 
@@ -210,7 +211,7 @@ def random_geometries(rng, n_geometries, n_poses):
 
 
 def reduce_all(forces, counts, params, order, capacity=4):
-    red = HullReduction.empty(forces.shape[1], capacity)
+    red = IncrementalHull.empty(forces.shape[1], capacity)
     for g in order:
         red.add(forces[g, :, 0], forces[g, :, 1], counts[g], g, params[g])
     return red
@@ -268,7 +269,7 @@ def test_reduction_matches_a_per_pose_reference():
 def test_near_coincident_geometries_count_for_the_vertex():
     # Geometry 1's force is 1e-13 (relative) inside geometry 0's vertex: both geometries count.
     square = np.array(SQUARE, dtype=float)
-    red = HullReduction.empty(1)
+    red = IncrementalHull.empty(1)
     params = np.array([[0.0, 0.4, 0.4, 0.04, 0.02], [2.0, 2.0, 1.6, 0.2, 0.18]])
     red.add(square[:, 0][:1], square[:, 1][:1], [True], 0, params[0])
     red.add(square[:1, 0] * (1 - 1e-13), square[:1, 1] * (1 - 1e-13), [True], 1, params[1])
@@ -280,7 +281,7 @@ def test_near_coincident_geometries_count_for_the_vertex():
     assert hull["first_geometry"][top_right] == 0
     np.testing.assert_array_equal(hull["param_max"][top_right], params[1])
     # ... while a force 1e-9 inside does not coincide.
-    far = HullReduction.empty(1)
+    far = IncrementalHull.empty(1)
     far.add([1.0], [1.0], [True], 0, params[0])
     far.add([1 - 1e-9], [1 - 1e-9], [True], 1, params[1])
     for i, (x, y) in enumerate(square[1:]):
@@ -302,15 +303,15 @@ def test_arrays_round_trip_and_merge_after_storage():
     forces, counts, params = random_geometries(rng, 20, 15)
     a = reduce_all(forces, counts, params, range(10))
     b = reduce_all(forces, counts, params, range(10, 20))
-    a2 = HullReduction.from_arrays(a.to_arrays())
+    a2 = IncrementalHull.from_arrays(a.to_arrays())
     for key, value in a.to_arrays().items():
         np.testing.assert_array_equal(a2.to_arrays()[key], value)
     whole = reduce_all(forces, counts, params, range(20))
-    assert_same(summary(a2.merge(HullReduction.from_arrays(b.to_arrays()))), summary(whole))
+    assert_same(summary(a2.merge(IncrementalHull.from_arrays(b.to_arrays()))), summary(whole))
 
 
 def test_invalid_input_is_refused():
-    red = HullReduction.empty(2)
+    red = IncrementalHull.empty(2)
     with pytest.raises(ValueError):
         red.add([1.0, np.nan], [0.0, 0.0], [True, True], 0, np.zeros(5))
     red.add([1.0, np.nan], [0.0, 0.0], [True, False], 0, np.zeros(5))   # not counted: fine
@@ -318,11 +319,11 @@ def test_invalid_input_is_refused():
     with pytest.raises(ValueError):
         red.add([1.0], [0.0], [True], 0, np.zeros(5))
     with pytest.raises(ValueError):
-        red.merge(HullReduction.empty(3))
+        red.merge(IncrementalHull.empty(3))
 
 
 def test_no_positive_pose_gives_undefined_usage():
-    red = HullReduction.empty(1)
+    red = IncrementalHull.empty(1)
     red.add([1.0], [0.0], [True], 0, np.ones(5))
     assert np.isnan(red.parameter_usage()).all()
     assert red.values()[0] == 0.0
@@ -348,7 +349,7 @@ def test_merge_of_random_splits_equals_one_pass_bitwise(seed, cuts, rnd):
 
 def test_vertices_closer_than_the_tolerance_share_their_geometries():
     # (1, 1) and (1 + 1e-13, 1 - 1e-13) are both hull vertices, and coincide (MODEL 10).
-    red = HullReduction.empty(1)
+    red = IncrementalHull.empty(1)
     corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0), (1.0 + 1e-13, 1.0 - 1e-13)]
     for g, (x, y) in enumerate(corners):
         red.add([x], [y], [True], g, np.full(5, float(g)))

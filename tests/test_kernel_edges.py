@@ -9,7 +9,7 @@ import pytest
 from kernel_calls import closing, solve
 from naive import naive_finger
 from sweep.kernels.many_maps import pose_radius_sum
-from sweep.compute.manipulation import HullReduction
+from incremental_hull import IncrementalHull
 from sweep.model import DISTAL_ONLY, SLIPPED, VERTEX
 
 TH2MIN = math.radians(-5.0)
@@ -25,7 +25,7 @@ def test_coincidence_with_a_vertex_is_one_part_in_1e12(inside, coincides):
     """A force `inside` (relative) short of the vertex (1, 1) of a square coincides with it
     below 1e-12 and not above: its geometry's parameters enter the usage or not."""
     params = np.array([[0.0, 0.4, 0.4, 0.04, 0.02], [2.0, 2.0, 1.6, 0.2, 0.18]])
-    red = HullReduction.empty(1)
+    red = IncrementalHull.empty(1)
     red.add([1.0], [1.0], [True], 0, params[0])
     red.add([1.0 - inside], [1.0 - inside], [True], 1, params[1])
     for g, (x, y) in enumerate([(-1.0, 1.0), (-1.0, -1.0), (1.0, -1.0)]):

@@ -224,18 +224,28 @@ def inner_kernels(kernels: Path = PACKAGE / "kernels") -> set[tuple[str, str]]:
     return found
 
 
+def is_njit(node: ast.AST) -> bool:
+    """A function compiled by Numba (`@numba.njit(...)`, `@njit`): it may call inner kernels."""
+    def name(d):
+        d = d.func if isinstance(d, ast.Call) else d
+        return d.attr if isinstance(d, ast.Attribute) else getattr(d, "id", "")
+    return isinstance(node, ast.FunctionDef) and any(name(d) == "njit"
+                                                     for d in node.decorator_list)
+
+
 def kernel_names_used(source: str) -> set[tuple[str, str]]:
-    """(kernel module, name) of every name a source outside the kernels takes from them:
-    `from ...kernels.field import f`, and `field.f` after `from ...kernels import field` or
-    `import sweep.kernels.field as field`."""
+    """(kernel module, name) of every name a source outside the kernels takes from them and
+    uses from Python: `f` after `from ...kernels.field import f`, and `field.f` after
+    `from ...kernels import field` or `import sweep.kernels.field as field`. Uses inside a
+    Numba kernel of the source itself (`@numba.njit`: tests' own kernels) do not count."""
     tree = ast.parse(source)
-    used, modules = set(), {}
+    names, modules = {}, {}
     for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module and "kernels" in node.module.split("."):
             rest = node.module.split(".")[node.module.split(".").index("kernels") + 1:]
             for alias in node.names:
                 if rest:
-                    used.add((rest[0], alias.name))
+                    names[alias.asname or alias.name] = (rest[0], alias.name)
                 else:
                     modules[alias.asname or alias.name] = alias.name
         elif isinstance(node, ast.Import):
@@ -243,8 +253,14 @@ def kernel_names_used(source: str) -> set[tuple[str, str]]:
                 parts = alias.name.split(".")
                 if "kernels" in parts[:-1]:
                     modules[alias.asname or alias.name] = parts[-1]
+    in_kernels = {id(n) for f in ast.walk(tree) if is_njit(f) for n in ast.walk(f)}
+    used = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+        if id(node) in in_kernels:
+            continue
+        if isinstance(node, ast.Name) and node.id in names:
+            used.add(names[node.id])
+        elif isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
                 and node.value.id in modules:
             used.add((modules[node.value.id], node.attr))
     return used
@@ -276,6 +292,15 @@ def test_the_checker_catches_an_inner_kernel_used_outside(tmp_path):
     assert inner_kernels_used_outside(tmp_path) == []
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "t.py").write_text("from sweep.kernels import field as k\nk.f()\n")
+    assert inner_kernels_used_outside(tmp_path) == ["tests/t.py uses the inner kernel field.f"]
+    # a test's own Numba kernel may call it; the same name called from Python may not
+    (tmp_path / "tests" / "t.py").write_text(
+        "import numba\nfrom sweep.kernels.field import f\n\n@numba.njit(cache=True)\n"
+        "def k():\n    return f()\n")
+    assert inner_kernels_used_outside(tmp_path) == []
+    (tmp_path / "tests" / "t.py").write_text(
+        "import numba\nfrom sweep.kernels.field import f\n\n@numba.njit\ndef k():\n"
+        "    return f()\n\nf()\n")
     assert inner_kernels_used_outside(tmp_path) == ["tests/t.py uses the inner kernel field.f"]
 
 

@@ -10,7 +10,8 @@ from naive import naive_finger
 from naive_manipulation import (SCENARIO_A_COMMANDS, SCENARIO_B_COMMANDS, THETA2_MAX, THETA2_MIN,
                                 finger_forces, naive_metric, on_limit, pose_forces, rot90,
                                 world_lattice)
-from sweep.compute.manipulation import PAPER_SEARCH_RANGES, HullReduction
+from sweep.compute.manipulation import PAPER_SEARCH_RANGES
+from incremental_hull import IncrementalHull
 from sweep.model import DISTAL_ONLY, PROXIMAL_ONLY, TWO_PHALANX
 
 # Three geometries of the paper's grid, (w, l1, l2, r1, r2), and a part (r, mu_s): chosen because
@@ -164,7 +165,7 @@ def test_hull_reduction_on_reference_forces(scenario, request):
     geometry's commands as separate adds), gives the reference's values and usage."""
     ref = request.getfixturevalue(scenario)
     n_poses = len(ref["poses"])
-    red = HullReduction.empty(n_poses)
+    red = IncrementalHull.empty(n_poses)
     per_geometry = {}
     for k, (owners, forces) in enumerate(ref["forces"]):
         for g in np.unique(owners):
@@ -187,7 +188,7 @@ def test_add_geometry_combines_the_commands(scenario, commands, request):
     """add_geometry with the per-finger resultants of every pose = the reference metric."""
     ref = request.getfixturevalue(scenario)
     n_poses = len(ref["poses"])
-    red = HullReduction.empty(n_poses)
+    red = IncrementalHull.empty(n_poses)
     for g, geometry in enumerate(GEOMETRIES):
         f_left, f_right = np.zeros((n_poses, 2)), np.zeros((n_poses, 2))
         counts = np.zeros(n_poses, dtype=bool)

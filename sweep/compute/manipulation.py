@@ -1,14 +1,13 @@
-"""In-hand manipulation metric (MODEL 10): the per-pose hull reduction, in plain Python.
+"""In-hand manipulation metric (MODEL 10): the per-part hull reductions, in plain Python.
 
-A `HullReduction` holds, for every pose of one part's lattice, the exact convex hull of the forces
-counted so far (plus the bookkeeping of which geometries gave each hull vertex). Geometries are
-added one at a time (`add`), chunks are combined with `merge`, and the result is read with
-`values` (the Ferrari-Canny radius of each pose) and `parameter_usage`. Every order of adding and
-every split into chunks gives bitwise the same hulls, values and usage (see kernels/hull.py).
-
-Capacity: each pose keeps at most `capacity` points (hull vertices and near points). When a pose
-needs more, the kernel reports it, the arrays grow (doubling) and that step is redone for the
-poses concerned; nothing is ever silently dropped.
+A `PartReduction` holds, for every pose of one part's lattice that received a force, the exact
+convex hull of the forces counted (plus which geometries gave each hull vertex), ragged. Chunks
+of work items reduce their entries (`reduce`, `from_entries`), reductions merge (`merge_all`:
+the hull of a union is the hull of the parts' hulls), and the result is read with `values` (the
+Ferrari-Canny radius of each pose) and `parameter_usage`. Every order and every split gives
+bitwise the same hulls, values and usage (kernels/hull.py: an exact orientation test). A batch
+of poses is read through a dense `HullReduction` (fixed capacity per pose).
+`ManipulationChunk` is a chunk's data: Scenario A per cell, Scenario B's reductions per part.
 """
 from __future__ import annotations
 
@@ -33,7 +32,8 @@ def _n_blocks() -> int:
 
 @dataclass
 class HullReduction:
-    """Per-pose state: see kernels/hull.py for the meaning of the arrays."""
+    """The dense state of a batch of poses, each with room for `capacity` kept points (hull
+    vertices, then near points): kernels/hull.py for the meaning of the arrays."""
 
     points: np.ndarray        # (n_poses, capacity, 12) float64: x, y, param min[5], param max[5]
     first: np.ndarray         # (n_poses, capacity) int64: smallest geometry index of each point
@@ -56,71 +56,6 @@ class HullReduction:
     def capacity(self) -> int:
         return self.points.shape[1]
 
-    def _grow(self, capacity: int) -> None:
-        points = np.zeros((self.n_poses, capacity, _hull.N_COLS))
-        first = np.zeros((self.n_poses, capacity), dtype=np.int64)
-        points[:, :self.capacity] = self.points
-        first[:, :self.capacity] = self.first
-        self.points, self.first = points, first
-
-    # -----------------------------------------------------------------------------------------
-    def add(self, fx, fy, counts, geometry_index: int, params) -> None:
-        """Add one geometry's forces at every pose: fx[pose], fy[pose] where counts[pose].
-
-        params: the geometry's (w, l1, l2, r1, r2). A counted force that is not finite is an
-        error of the caller (ValueError, nothing added)."""
-        fx = np.ascontiguousarray(fx, dtype=np.float64)
-        fy = np.ascontiguousarray(fy, dtype=np.float64)
-        counts = np.ascontiguousarray(counts, dtype=np.bool_)
-        params = np.ascontiguousarray(params, dtype=np.float64)
-        if not (fx.shape == fy.shape == counts.shape == (self.n_poses,)):
-            raise ValueError(f"fx, fy, counts must have shape ({self.n_poses},)")
-        if params.shape != (_hull.N_PARAMS,):
-            raise ValueError(f"params must be the {_hull.N_PARAMS} values {PARAMETER_NAMES}")
-        if not (np.isfinite(fx[counts]).all() and np.isfinite(fy[counts]).all()):
-            raise ValueError("a counted force is not finite")
-        status = np.zeros(self.n_poses, dtype=np.int64)
-        todo = counts
-        while True:
-            _hull.reduction_add(self.points, self.first, self.n_hull, self.n_kept, fx, fy, todo,
-                                np.int64(geometry_index), params, status, _n_blocks())
-            overflow = status == _hull.STATUS_OVERFLOW
-            if not overflow.any():
-                return
-            # Overflowed poses were left unchanged: grow and redo exactly those.
-            self._grow(2 * self.capacity)
-            todo = overflow
-
-    def add_geometry(self, f_left, f_right, counts, commands, geometry_index: int,
-                     params) -> None:
-        """Add one geometry under every command (MODEL 10): at each counted pose the force
-        F_left f_left + F_right f_right for each (F_left, F_right) in commands.
-
-        f_left, f_right: (n_poses, 2) per-unit-tension resultants of each finger on the part,
-        world frame, already multiplied by the pose's S_geo."""
-        f_left = np.asarray(f_left, dtype=np.float64)
-        f_right = np.asarray(f_right, dtype=np.float64)
-        if f_left.shape != (self.n_poses, 2) or f_right.shape != (self.n_poses, 2):
-            raise ValueError(f"f_left and f_right must have shape ({self.n_poses}, 2)")
-        for f_l, f_r in commands:
-            force = f_l * f_left + f_r * f_right
-            self.add(force[:, 0], force[:, 1], counts, geometry_index, params)
-
-    def merge(self, other: "HullReduction") -> "HullReduction":
-        """A new reduction holding the union of both (the hull of the union of their forces)."""
-        if other.n_poses != self.n_poses:
-            raise ValueError("reductions of different pose lattices cannot be merged")
-        capacity = max(self.capacity, other.capacity)
-        status = np.zeros(self.n_poses, dtype=np.int64)
-        while True:
-            out = HullReduction.empty(self.n_poses, capacity)
-            _hull.reduction_merge(self.points, self.first, self.n_kept, other.points,
-                                  other.first, other.n_kept, out.points, out.first, out.n_hull,
-                                  out.n_kept, status, _n_blocks())
-            if not (status == _hull.STATUS_OVERFLOW).any():
-                return out
-            capacity *= 2
-
     # -----------------------------------------------------------------------------------------
     def values(self) -> np.ndarray:
         """Per-pose value: radius of the largest origin-centred circle inside the hull, else 0."""
@@ -141,35 +76,6 @@ class HullReduction:
         divided by the search range, averaged over the poses with a positive value. NaN where
         no pose has a positive value, or where a search range is 0 (the usage is undefined)."""
         return usage_of(self.parameter_ranges(), self.values() > 0.0, search_ranges)
-
-    def hull(self, pose: int) -> dict:
-        """The hull at one pose: vertices (CCW from the lowest-then-leftmost), and per vertex the
-        parameter ranges and smallest index of the geometries whose forces coincide with it."""
-        nh, nk = int(self.n_hull[pose]), int(self.n_kept[pose])
-        row = self.points[pose]
-        group_min = np.zeros((max(nh, 1), _hull.N_PARAMS))
-        group_max = np.zeros((max(nh, 1), _hull.N_PARAMS))
-        group_first = np.zeros(max(nh, 1), dtype=np.int64)
-        _hull.vertex_groups(row, self.first[pose], nh, nk, group_min, group_max, group_first)
-        return {"x": row[:nh, _hull.X].copy(), "y": row[:nh, _hull.Y].copy(),
-                "param_min": group_min[:nh], "param_max": group_max[:nh],
-                "first_geometry": group_first[:nh]}
-
-    # -----------------------------------------------------------------------------------------
-    def to_arrays(self) -> dict:
-        """Flat arrays (ragged rows as offsets + concatenation), for HDF5 shards."""
-        offsets = np.zeros(self.n_poses + 1, dtype=np.int64)
-        np.cumsum(self.n_kept, out=offsets[1:])
-        keep = np.arange(self.capacity)[None, :] < self.n_kept[:, None]
-        rows = self.points[keep]
-        return {
-            "offsets": offsets,
-            "n_hull": self.n_hull.copy(),
-            "force": rows[:, :2].copy(),
-            "param_min": rows[:, _hull.PMIN:_hull.PMIN + _hull.N_PARAMS].copy(),
-            "param_max": rows[:, _hull.PMAX:_hull.PMAX + _hull.N_PARAMS].copy(),
-            "first_geometry": self.first[keep].copy(),
-        }
 
     @classmethod
     def from_arrays(cls, arrays: dict) -> "HullReduction":
