@@ -12,7 +12,7 @@ from hypothesis import given, strategies as st
 from sweep.compute.batch import summarize_cells
 from sweep.compute.threads import numba_threads
 from sweep.compute.maps import compute_map
-from sweep.compute.threads import over_ranges, split
+from sweep.compute.threads import over_ranges, split, split_by_cost
 from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 
 
@@ -25,6 +25,25 @@ def test_split_covers_every_index_once_in_order(n, parts):
     if n:
         sizes = [b - a for a, b in ranges]
         assert max(sizes) - min(sizes) <= 1
+
+
+@given(st.lists(st.floats(0.0, 1e6), max_size=300), st.integers(1, 16))
+def test_split_by_cost_covers_every_index_once_and_balances(costs, parts):
+    ranges = split_by_cost(costs, parts)
+    covered = [i for a, b in ranges for i in range(a, b)]
+    assert covered == list(range(len(costs)))
+    assert all(b > a for a, b in ranges) and len(ranges) <= max(min(parts, len(costs)), 1)
+    if costs:
+        # each range holds at most its share of the total plus one item
+        share = sum(costs) / min(parts, len(costs))
+        assert all(sum(costs[a:b]) <= share + max(costs[a:b]) + 1e-6 * share
+                   for a, b in ranges)
+
+
+def test_split_by_cost_cuts_nearest_the_share():
+    assert split_by_cost([1, 1, 1, 100, 1, 1], 2) == [(0, 3), (3, 6)]
+    assert split_by_cost([100, 1, 1, 1], 2) == [(0, 1), (1, 4)]
+    assert split_by_cost([1] * 10, 3) == [(0, 3), (3, 7), (7, 10)]
 
 
 def test_every_range_runs_once_on_several_threads():

@@ -94,7 +94,16 @@ def _summarize_on_shared_fields(cells, widths, palm_steps, ncols, nys, h, comman
                                   limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
                                   manip)
 
-    over_ranges(cells.shape[0], cells_in_range)
+    # The kernel keeps caches across the cells of a range when finger_collision (the meetings)
+    # or Scenario C (the low-friction field) is on: then one range per thread, of equal grid
+    # points (what a cell costs, to first order), as a smaller range would start them anew;
+    # else a cell per range, each thread taking the next as it finishes one (the best balance:
+    # docs/performance.md, "Threads").
+    if blocks.finger_collision.on or manip.c_mu_low.shape[0] > 0:
+        points = nys * ((2 * ncols + 1) * want).sum(axis=1)
+        over_ranges(cells.shape[0], cells_in_range, ranges_per_thread=1, costs=points)
+    else:
+        over_ranges(cells.shape[0], cells_in_range, ranges_per_thread=cells.shape[0])
 
 
 def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,

@@ -17,6 +17,7 @@ import contextlib
 from typing import Callable
 
 import numba
+import numpy as np
 
 from ..model import ModelInputError
 
@@ -54,13 +55,33 @@ def split(n: int, parts: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
 
+def split_by_cost(costs, parts: int) -> list[tuple[int, int]]:
+    """`parts` consecutive ranges (first, last) covering 0 .. len(costs) - 1 whose summed costs
+    are as equal as whole items allow: cut k where the running sum comes nearest k / parts of
+    the total (before or after the item that crosses it)."""
+    costs = np.asarray(costs, dtype=np.float64).reshape(-1)
+    n = costs.size
+    parts = max(1, min(parts, n))
+    running = np.concatenate([[0.0], np.cumsum(costs)])   # running[i]: the first i items
+    bounds = [0]
+    for k in range(1, parts):
+        target = running[-1] * k / parts
+        cut = int(np.searchsorted(running, target))       # running[cut] >= target
+        if cut > 0 and target - running[cut - 1] <= running[min(cut, n)] - target:
+            cut -= 1
+        bounds.append(min(max(cut, bounds[-1] + 1), n - (parts - k)))
+    bounds.append(n)
+    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+
 def over_ranges(n: int, task: Callable[[int, int], None],
-                ranges_per_thread: int = RANGES_PER_THREAD) -> None:
+                ranges_per_thread: int = RANGES_PER_THREAD, costs=None) -> None:
     """Call `task(first, last)` for consecutive ranges covering 0 .. n - 1, on Numba's thread
-    count of threads (in this thread when it is 1). An exception in a task is raised here once
-    every task has stopped."""
+    count of threads (in this thread when it is 1); with `costs` (one per item), ranges of
+    equal summed cost. An exception in a task is raised here once every task has stopped."""
     threads = numba.get_num_threads()
-    ranges = split(n, threads * ranges_per_thread)
+    parts = threads * ranges_per_thread
+    ranges = split(n, parts) if costs is None else split_by_cost(costs, parts)
     if threads == 1 or len(ranges) <= 1:
         for first, last in ranges:
             task(first, last)
