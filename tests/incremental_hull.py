@@ -236,7 +236,7 @@ class IncrementalHull(HullReduction):
         rows = self.points[keep]
         return {
             "offsets": offsets,
-            "n_hull": self.nhull.copy(),
+            "n_hull": self.n_hull.copy(),
             "force": rows[:, :2].copy(),
             "param_min": rows[:, hull.PMIN:hull.PMIN + hull.N_PARAMS].copy(),
             "param_max": rows[:, hull.PMAX:hull.PMAX + hull.N_PARAMS].copy(),

@@ -8,7 +8,12 @@ Workloads (--what):
   - `sweep`: --cells random paper cells (seed 1) x 6 widths at h, summaries (summarize_cells);
   - `collision`: the same with the finger_collision effect (the collision scene);
   - `maps`: the three maps of `bench.py baseline` at h / 2 (compute_map);
-  - `forces`: the same three maps, contact forces off versus on, in the last tree only.
+  - `forces`: the same three maps, contact forces off versus on, in the last tree only;
+  - `run`, `run-collision`: `sweep run` of a slice of configs/paper.yaml (paper-collision.yaml),
+    l1 = 1.6 .. 2.0 and mu = 0.4, without `refine:` (7,200 maps with the manipulation metric),
+    as `make run` runs it: the runner's sub-chunks, threads and the manipulation path (the
+    sample workloads call one kernel driver; the regression of P15's first thread split, 1.11x
+    and 1.17x on the full sweeps, did not show there). The config is this tree's.
 `git worktree add --detach <dir> <commit>` gives an old tree to compare with. Warm each tree's
 kernel cache first (a first run that compiles is timed like any other).
 """
@@ -16,9 +21,14 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
+import tempfile
+import time
 from pathlib import Path
+
+import yaml
 
 from .timing import header, print_side_by_side, side_by_side
 
@@ -64,7 +74,8 @@ def add_arguments(ap) -> None:
                     help="a name and a source tree (the folder holding sweep/); the first is "
                          "the reference of the ratios, e.g. before=<old tree> after=.")
     ap.add_argument("--what", default="sweep,collision,maps,forces",
-                    help="comma-separated workloads: sweep, collision, maps, forces [all four]")
+                    help="comma-separated workloads: sweep, collision, maps, forces, run, "
+                         "run-collision [sweep,collision,maps,forces]")
     ap.add_argument("--h", type=float, default=0.05,
                     help="sweep spacing; the maps use h / 2 [0.05]")
     ap.add_argument("--cells", type=int, default=64, help="paper cells of `sweep` [64]")
@@ -81,6 +92,32 @@ def child_seconds(tree: Path, what: str, cells: int, h: float) -> tuple[float, f
     return float(wall), float(cpu)
 
 
+def run_slice(config: Path, out_dir: Path) -> Path:
+    """The slice of a paper config that the `run` workloads sweep (module docstring)."""
+    cfg = yaml.safe_load(config.read_text())
+    cfg["designs"]["l1"] = {"lower": 1.6, "upper": 2.0, "step": 0.2}
+    cfg["parts"]["mu"] = {"lower": 0.4, "upper": 0.4, "step": 0.3}
+    cfg.pop("refine", None)
+    cfg["name"] = f"{cfg['name']}-slice"
+    path = out_dir / f"{cfg['name']}.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    return path
+
+
+def run_seconds(tree: Path, config: Path) -> tuple[float, float]:
+    """(wall, CPU of the child) seconds of `sweep run config` in a fresh process on `tree`."""
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    with tempfile.TemporaryDirectory() as tmp:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        wall = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "sweep", "run", str(config), "--out",
+                        str(Path(tmp) / "out.h5"), "--no-progress"], env=env, cwd=str(tree),
+                       check=True, capture_output=True, text=True)
+        wall = time.perf_counter() - wall
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
 def run(args) -> int:
     trees = {}
     for spec in args.trees:
@@ -90,8 +127,9 @@ def run(args) -> int:
                              "holding sweep/")
         trees[name] = Path(tree).resolve()
     what = args.what.split(",")
-    if set(what) - {"sweep", "collision", "maps", "forces"}:
-        raise SystemExit("bench.py trees: --what takes sweep, collision, maps, forces")
+    if set(what) - {"sweep", "collision", "maps", "forces", "run", "run-collision"}:
+        raise SystemExit("bench.py trees: --what takes sweep, collision, maps, forces, run, "
+                         "run-collision")
     header(NAME)
     for name, tree in trees.items():
         print(f"# {name}: {tree}")
@@ -112,6 +150,19 @@ def run(args) -> int:
             f"three whole maps at h = {args.h / 2} (compute_map)",
             side_by_side(names, lambda k: child_seconds(trees[k], "maps", args.cells, args.h),
                          args.repeats))
+    for workload, config in (("run", "paper.yaml"), ("run-collision", "paper-collision.yaml")):
+        if workload not in what:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            slices = {}
+            for k in names:
+                (Path(tmp) / k).mkdir()
+                slices[k] = run_slice(trees[k] / "configs" / config, Path(tmp) / k)
+                run_seconds(trees[k], slices[k])   # warm: compile or load the kernels
+            print_side_by_side(
+                f"sweep run of configs/{config}, l1 = 1.6 .. 2.0, mu = 0.4 (7,200 maps, "
+                "manipulation metric, no refinement)",
+                side_by_side(names, lambda k, s=slices: run_seconds(trees[k], s[k]), args.repeats))
     if "forces" in what:
         last = trees[names[-1]]
         kind = {"forces off": "maps", "forces on": "maps_forces"}
