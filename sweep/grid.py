@@ -121,7 +121,8 @@ def check_memory(n_points: int, what: str = "the grid",
                  bytes_per_point: int = BYTES_PER_POINT) -> None:
     """Refuse a grid whose working arrays would not fit in memory."""
     if n_points > MAX_POINTS_DEFAULT:
-        raise ModelInputError(f"{what} has {n_points:,} points, more than "
+        raise ModelInputError(f"{what} has {n_points:,} points (about "
+                              f"{n_points * bytes_per_point / 2**30:,.0f} GiB), more than "
                               f"{MAX_POINTS_DEFAULT:,}: raise h or narrow it")
     check_memory_need(n_points * bytes_per_point, f"{what} ({n_points:,} points)",
                       "raise h or narrow it")
