@@ -98,7 +98,7 @@ def _summarize_on_shared_fields(cells, widths, palm_steps, ncols, nys, h, comman
     # or Scenario C (the low-friction field) is on: then one range per thread, of equal grid
     # points (what a cell costs, to first order), as a smaller range would start them anew;
     # else a cell per range, each thread taking the next as it finishes one (the best balance:
-    # docs/performance.md, "Threads").
+    # docs/performance.md, "The sweep's threads").
     if blocks.finger_collision.on or manip.c_mu_low.shape[0] > 0:
         points = nys * ((2 * ncols + 1) * want).sum(axis=1)
         over_ranges(cells.shape[0], cells_in_range, ranges_per_thread=1, costs=points)
