@@ -48,11 +48,16 @@ def numba_threads(n: int | None):
         numba.set_num_threads(old)
 
 
+def ranges_between(bounds: list[int]) -> list[tuple[int, int]]:
+    """The non-empty ranges (first, last) between consecutive bounds."""
+    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+
 def split(n: int, parts: int) -> list[tuple[int, int]]:
     """`parts` consecutive ranges (first, last) covering 0 .. n - 1, as equal as they come."""
     parts = max(1, min(parts, n))
     bounds = [n * k // parts for k in range(parts + 1)]
-    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    return ranges_between(bounds)
 
 
 def split_by_cost(costs, parts: int) -> list[tuple[int, int]]:
@@ -71,7 +76,7 @@ def split_by_cost(costs, parts: int) -> list[tuple[int, int]]:
             cut -= 1
         bounds.append(min(max(cut, bounds[-1] + 1), n - (parts - k)))
     bounds.append(n)
-    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    return ranges_between(bounds)
 
 
 def over_ranges(n: int, task: Callable[[int, int], None],
