@@ -54,6 +54,7 @@ class MapScores:
         self.on_compute = on_compute
         self.memo: dict = {}
         self.counts: dict = {}             # (r, mu, h) -> maps in the memo
+        self.seconds: dict = {}            # key -> computing seconds of the map
         self.rows: list = []
         self.computed = 0
         self.compute_seconds = 0.0
@@ -78,6 +79,7 @@ class MapScores:
         if key in self.memo:
             return
         self.memo[key] = value
+        self.seconds[key] = seconds
         self.counts[key[:3]] = self.counts.get(key[:3], 0) + 1
         self.rows.append((r, mu, h, *(float(v) for v in design), value, seconds))
 

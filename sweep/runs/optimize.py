@@ -254,8 +254,12 @@ def optimise_part(scores: MapScores, scene: Scene, box: Box, r: float, mu: float
                   best: GridBest, s: OptimizeSettings) -> OptimizedPart:
     """Steps 2-6 for one part."""
     h = scene.h
-    rows0 = len(scores.rows)
-    area = lambda d, hh=h: scores.area(d, r, mu, hh)        # noqa: E731
+    used: set = set()        # every map the part asked for (computed now or before a kill)
+
+    def area(d, hh=h, m=mu):
+        used.add(class_key(d, r, m, hh))
+        return scores.area(d, r, m, hh)
+
     budget = s.evaluations
     seen: set = set()        # the designs the search asked for (a rerun asks the same)
 
@@ -294,9 +298,8 @@ def optimise_part(scores: MapScores, scene: Scene, box: Box, r: float, mu: float
         fr = []
         for dmu in (-s.friction_change, s.friction_change):
             m = mu + dmu
-            fr.append(scores.area(y, r, m, hr) if m >= 0 else math.nan)
+            fr.append(area(y, hr, m) if m >= 0 else math.nan)
         robust[name] = (float(np.min(t)), float(np.median(t)), t[0], fr)
-    rows = scores.table()[rows0:]
     return OptimizedPart(
         r=r, mu=mu, x_star=x, grid_best=best.design, x_values=vx, g_values=vg, finest_level=top,
         x_error=ex, g_error=eg, difference=d, uncertainty=u, beats=bool(d > u),
@@ -306,7 +309,7 @@ def optimise_part(scores: MapScores, scene: Scene, box: Box, r: float, mu: float
         finalists=np.array(finalists), finalist_values=values[:-1],
         constraints={k: active.get(k, ("", math.nan, math.nan)) for k in CONSTRAINTS},
         steps=smallest, robust=robust, search_maps=len(seen),
-        maps=int(rows.shape[0]), seconds=float(rows[:, -1].sum()) if rows.size else 0.0)
+        maps=len(used), seconds=float(sum(scores.seconds[k] for k in used)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -320,10 +323,14 @@ def optimise_joint(scores: MapScores, scene: Scene, box: Box, parts: list,
     own = np.array([scores.area(p.x_star, p.r, p.mu, h) for p in parts])
     use = own > 0
     seen: set = set()
-    rows0 = len(scores.rows)
+    used: set = set()
+
+    def area(d, p, hh):
+        used.add(class_key(d, p.r, p.mu, hh))
+        return scores.area(d, p.r, p.mu, hh)
 
     def relative(d, hh=h):
-        return np.array([scores.area(d, p.r, p.mu, hh) for p in parts]) / np.where(use, own, 1)
+        return np.array([area(d, p, hh) for p in parts]) / np.where(use, own, 1)
 
     def combine(rel):
         rel = rel[use]
@@ -347,17 +354,16 @@ def optimise_joint(scores: MapScores, scene: Scene, box: Box, parts: list,
     end = pattern_search(score, box, start, grid_steps(scene), min_steps(scene, box))
     x = end.best
     h1 = level_h(h, 1)
-    at_h = np.array([scores.area(x, p.r, p.mu, h) for p in parts])
-    at_h1 = np.array([scores.area(x, p.r, p.mu, h1) for p in parts])
-    own_h1 = np.array([scores.area(p.x_star, p.r, p.mu, h1) for p in parts])
+    at_h = np.array([area(x, p, h) for p in parts])
+    at_h1 = np.array([area(x, p, h1) for p in parts])
+    own_h1 = np.array([area(p.x_star, p, h1) for p in parts])
     loss = np.where(own_h1 > 0, 1.0 - at_h1 / np.where(own_h1 > 0, own_h1, 1), np.nan)
     rel_h1 = np.where(own_h1 > 0, at_h1 / np.where(own_h1 > 0, own_h1, 1), np.nan)
-    rows = scores.table()[rows0:]
     return OneGripper(objective=s.objective, design=x, score=end.value,
                       score_fine=combine(np.nan_to_num(rel_h1)), values=at_h, values_fine=at_h1,
                       errors=np.abs(at_h1 - at_h), own_fine=own_h1, loss=loss,
-                      designs_scored=len(seen), maps=int(rows.shape[0]),
-                      seconds=float(rows[:, -1].sum()) if rows.size else 0.0,
+                      designs_scored=len(seen), maps=len(used),
+                      seconds=float(sum(scores.seconds[k] for k in used)),
                       constraints={k: v[0] for k, v in box.active(x).items()})
 
 

@@ -244,7 +244,7 @@ def _write_parts(f, parts: list, n_levels: int) -> None:
              f"caging area of {who} at h/2 with the part's mu changed", AREA)
     _var(f, "search_maps", [p.search_maps for p in parts], P,
          "designs the search scored at h (distinct equal-R classes)")
-    _var(f, "maps", [p.maps for p in parts], P, "maps computed for the part (every level)")
+    _var(f, "maps", [p.maps for p in parts], P, "maps the part used, every h (each computed once)")
     _var(f, "seconds", [p.seconds for p in parts], P, "computing seconds of those maps", "s")
 
 
