@@ -250,3 +250,36 @@ def test_a_config_is_not_a_store(tmp_path):
     shutil.copy(SMALL, tmp_path / "small.yaml")
     res = invoke("optimize", tmp_path / "small.yaml")
     assert res.exit_code == 2 and "not a results store" in res.output
+
+
+def test_no_design_of_a_grid_4x_finer_beats_x_star_beyond_the_error(small_store, tmp_path):
+    """Brute force (scripts/optimize_bruteforce.py's check): every design of a grid 4x finer
+    than the store's in every parameter, same parts, same h; the best of them B against x* at
+    h/2, each with its error estimate (its change from h)."""
+    import sys
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from optimize_bruteforce import fine_grid
+
+    from sweep.config.parse import load_scene
+    from sweep.runs.evaluations import MapScores
+
+    out = tmp_path / "opt.h5"
+    res = invoke("optimize", small_store, "--threads", 1, "--no-progress", "--out", out)
+    assert res.exit_code == 0, res.output
+    scene = load_scene(SMALL)
+    designs = fine_grid([min(scene.values[k]) for k in ("l1", "l2", "r1", "r2", "w")],
+                        [max(scene.values[k]) for k in ("l1", "l2", "r1", "r2", "w")],
+                        [0.8, 0.8, 0.08, 0.08, 0.4], 4)
+    assert designs.shape == (5 ** 5, 5)
+    scores, h = MapScores(scene), scene.h
+    with h5py.File(out, "r") as f:
+        parts = list(zip(f["r"][...], f["mu"][...]))
+        x_stars = f["x_star"][...]
+    for (r, mu), x in zip(parts, x_stars):
+        values = np.array([scores.area(d, r, mu, h) for d in designs])
+        b = designs[int(np.argmax(values))]
+        xb = [(scores.area(d, r, mu, h / 2), abs(scores.area(d, r, mu, h / 2)
+                                               - scores.area(d, r, mu, h))) for d in (x, b)]
+        (vx, ex), (vb, eb) = xb
+        assert vb - vx <= ex + eb, (r, mu, x, b, xb)
