@@ -283,3 +283,24 @@ def test_no_design_of_a_grid_4x_finer_beats_x_star_beyond_the_error(small_store,
                                                - scores.area(d, r, mu, h))) for d in (x, b)]
         (vx, ex), (vb, eb) = xb
         assert vb - vx <= ex + eb, (r, mu, x, b, xb)
+
+
+def test_the_report_of_an_optimised_store_has_the_section(small_store, tmp_path):
+    """`sweep report` adds optimization.csv/png and a section when STORE.optimize.h5 is beside
+    the store; the table's numbers are the results file's (read here with h5py)."""
+    import csv
+
+    store = tmp_path / "small.h5"
+    shutil.copy(small_store, store)
+    assert invoke("optimize", store, *OPTS).exit_code == 0
+    assert (tmp_path / "small.optimize.h5").exists()
+    res = invoke("report", store, "--out", tmp_path / "report")
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader(open(tmp_path / "report" / "optimization.csv")))
+    assert (tmp_path / "report" / "optimization.png").stat().st_size > 0
+    assert "## 6. Beyond the grid" in (tmp_path / "report" / "report.md").read_text()
+    with h5py.File(tmp_path / "small.optimize.h5", "r") as f:
+        k = int(f["finest_level"][0])
+        assert float(rows[0]["x_area"]) == pytest.approx(f["x_star_area"][0, k], rel=1e-5)
+        assert float(rows[0]["g_area"]) == pytest.approx(f["grid_best_area"][0, k], rel=1e-5)
+        assert float(rows[0]["x_l1"]) == pytest.approx(f["x_star"][0, 0], rel=1e-5)
