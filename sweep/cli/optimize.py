@@ -8,8 +8,8 @@ import sys
 
 import click
 
-from .common import (EXIT_INTERRUPTED, PATH, STORE, THREADS, SweepCommand, UserError,
-                     check_path, interrupted_message)
+from .common import (EXIT_INTERRUPTED, STORE, STORE_OUT, THREADS, SweepCommand, UserError,
+                     interrupted_message)
 
 PARAMS = ("l1", "l2", "r1", "r2", "w")
 
@@ -130,7 +130,7 @@ def parse_parts(items, view) -> list:
               help="Manufacturing tolerance of each parameter (model units), for robustness.")
 @click.option("--friction-change", type=click.FloatRange(min=0.0), default=0.1,
               show_default=True, help="Robustness in friction: the part's mu +- this.")
-@click.option("--out", type=PATH, default=None,
+@click.option("--out", type=STORE_OUT, default=None,
               help="Results file [default: STORE's name + .optimize.h5, beside it].")
 @THREADS
 @click.option("--progress/--no-progress", default=True, show_default=True,
@@ -194,7 +194,6 @@ def optimize(store, part_items, parts, evaluations, seed, fix_items, bound_items
     if not box.free:
         raise UserError("nothing to search: every parameter is fixed")
     out = Path(out) if out is not None else optimization_path(store)
-    check_path(out, "store-out", "--out")
     threads = resolve_threads(threads)
     settings = OptimizeSettings(evaluations=evaluations, seed=seed, n_seeds=n_seeds,
                                 starts=starts, levels=levels, tolerance=tolerance,
