@@ -6,6 +6,7 @@
     results.py   sweep top, show        what a store holds
     report.py    sweep report           the paper's experiments from one store, or two scenes
     accuracy.py  sweep accuracy         accuracy settings versus time on a config's maps
+    optimize.py  sweep optimize         the best design between the grid's points
     common.py    what the commands share: error handling (`user_errors`), `SweepCommand`,
                  `SweepGroup`, parameter types and options (CONFIG, THREADS, WAIT, ...)
 
@@ -18,7 +19,7 @@ from __future__ import annotations
 import click
 
 from .. import __version__
-from . import accuracy, map, report, results, run, slurm
+from . import accuracy, map, optimize, report, results, run, slurm
 from .common import SweepGroup
 
 
@@ -35,7 +36,8 @@ def main():
 
 #: Every command, once.
 COMMANDS = (map.map_command, run.run, slurm.slurm_command, slurm.status, run.merge, run.refine,
-            results.top, results.show, report.report, accuracy.accuracy)
+            results.top, results.show, report.report, accuracy.accuracy,
+            optimize.optimize)
 
 
 def register(group: click.Group) -> None:

@@ -36,7 +36,7 @@ from .. import __version__
 from ..files import text_bytes
 from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, best_columns,
                      refinement_rows)
-from . import caging, friction, manipulation, tip, usage
+from . import caging, friction, manipulation, optimized, tip, usage
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
                    fmt, identity, md_table, part_text, report_files, resolve_top_k)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
@@ -60,7 +60,11 @@ FRICTION_FILES = ("friction.png", "friction.csv", "friction_candidates.csv",
                   "caging_modulation.csv")
 
 
-ALL_FILES = CAGING_FILES + MANIPULATION_FILES + FRICTION_FILES + ("report.md", MARKER)
+OPTIMIZATION_FILES = ("optimization.png", "optimization.csv")
+
+
+ALL_FILES = (CAGING_FILES + MANIPULATION_FILES + FRICTION_FILES + OPTIMIZATION_FILES
+             + ("report.md", MARKER))
 
 
 @dataclass
@@ -79,6 +83,8 @@ class Report:
     friction: list[dict] = field(default_factory=list)
     modulation: list[dict] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
+    optimized: list[dict] = field(default_factory=list)
+    optimized_path: Path | None = None
 
 
 def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
@@ -95,6 +101,9 @@ def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
             c_best = next(c for c in rep.friction_candidates if c["best"])
             rep.friction = friction.friction_rows(st, best, c_best)
             rep.modulation = friction.modulation_rows(st, best, log)
+    rep.optimized_path = optimized.optimized_file(st)
+    if rep.optimized_path is not None:
+        rep.optimized = optimized.optimization_rows(rep.optimized_path)
     return rep
 
 
@@ -128,6 +137,9 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
         write("friction.png", png(friction.friction_figure(
             st, rep.friction, rep.modulation, next(c for c in rep.candidates if c["best"]),
             next(c for c in rep.friction_candidates if c["best"]))))
+    if rep.optimized:
+        write("optimization.csv", csv_bytes(rep.optimized, optimized.OPT_COLUMNS))
+        write("optimization.png", png(optimized.optimization_figure(st, rep.optimized, log)))
     write("best_caging.png", png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", text_bytes(markdown(st, rep)))
@@ -366,6 +378,10 @@ def markdown(st: StoreData, rep: Report) -> str:
     L += ["", "## 5. Friction modulation, Scenario C (`friction.png`, `friction.csv`, "
           "`friction_candidates.csv`, `caging_modulation.csv`)", ""]
     L += friction_section(st, rep)
+    if rep.optimized:
+        L += ["", "## 6. Beyond the grid, `sweep optimize` (`optimization.png`, "
+              "`optimization.csv`)", ""]
+        L += optimized.section(rep.optimized, rep.optimized_path)
     L += ["", "## Reading", ""] + reading(st, rep)
     L += ["", "## Compared with the paper", ""] + comparison(st, rep)
     L.append("")

@@ -15,6 +15,7 @@ import numpy as np
 
 from .. import __version__
 from ..files import write_bytes_atomic
+from ..storage.optimized import optimization_created
 from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
 from ..storage.h5 import StoreError
 
@@ -256,7 +257,8 @@ def identity(st: StoreData, top_k: int | None) -> dict:
     a = st.attrs
     return dict(store=str(st.path.resolve()), config_hash=a.get("config_hash"),
                 store_created_utc=a.get("created_utc"),
-                store_refined_utc=a.get("refine_created_utc"), top_k=top_k,
+                store_refined_utc=a.get("refine_created_utc"),
+                store_optimized_utc=optimization_created(st.path), top_k=top_k,
                 manipulation=st.manipulation, report_version=__version__)
 
 
