@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from .common import CONFIG, FOLDER_OUT, SweepCommand, UserError, check_path
+from .common import CONFIG, FOLDER_OUT, PROGRESS, SweepCommand, UserError, check_path
 
 
 @click.command("accuracy", cls=SweepCommand,
@@ -24,8 +24,7 @@ from .common import CONFIG, FOLDER_OUT, SweepCommand, UserError, check_path
                    "[default: results/accuracy-<config name>].")
 @click.option("--map", "maps", multiple=True, metavar="L1,L2,R1,R2,W,R,MU",
               help="Also show this map's convergence as h halves, on its own (repeatable).")
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Progress bar on stderr.")
+@PROGRESS
 def accuracy(config, n_sample, out, maps, progress):
     """Run a ladder of accuracy settings (h, reconfig_step, root_tol, trajectory method) on
     a deterministic sample of CONFIG's maps against a reference one halving finer than the

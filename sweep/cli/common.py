@@ -306,5 +306,7 @@ PICTURE_OUT = KindPath("picture-out")
 WAIT = click.option("--wait", is_flag=True,
                     help="If another sweep is writing the same output, wait for it instead of "
                          "stopping at once.")
+PROGRESS = click.option("--progress/--no-progress", default=True, show_default=True,
+                        help="Progress bar on stderr (maps done, maps/s, ETA).")
 THREADS = click.option("--threads", type=int, default=None,
                        help="Numba threads (default: SLURM_CPUS_PER_TASK, else every core).")

@@ -8,7 +8,8 @@ import sys
 
 import click
 
-from .common import (EXIT_INTERRUPTED, STORE, STORE_OUT, THREADS, SweepCommand, UserError,
+from .common import (EXIT_INTERRUPTED, PROGRESS, STORE, STORE_OUT, THREADS, SweepCommand,
+                     UserError,
                      interrupted_message)
 
 PARAMS = ("l1", "l2", "r1", "r2", "w")
@@ -133,8 +134,7 @@ def parse_parts(items, view) -> list:
 @click.option("--out", type=STORE_OUT, default=None,
               help="Results file [default: STORE's name + .optimize.h5, beside it].")
 @THREADS
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Progress bar on stderr.")
+@PROGRESS
 @click.option("--restart", is_flag=True,
               help="Discard the maps of an interrupted run instead of resuming.")
 def optimize(store, part_items, parts, evaluations, seed, fix_items, bound_items,

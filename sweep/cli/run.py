@@ -8,8 +8,9 @@ import sys
 
 import click
 
-from .common import (CONFIG, EXIT_INTERRUPTED, RUN_DIR, STORE, STORE_OR_RUN_OUT, STORE_OUT,
-                     THREADS, WAIT, SweepCommand, UserError, check_path, interrupted_message)
+from .common import (CONFIG, EXIT_INTERRUPTED, PROGRESS, RUN_DIR, STORE, STORE_OR_RUN_OUT,
+                     STORE_OUT, THREADS, WAIT, SweepCommand, UserError, check_path,
+                     interrupted_message)
 
 
 @click.command("run", cls=SweepCommand, short_help="Compute a sweep (one machine, or one chunk).")
@@ -21,8 +22,7 @@ from .common import (CONFIG, EXIT_INTERRUPTED, RUN_DIR, STORE, STORE_OR_RUN_OUT,
 @click.option("--chunks", type=int, default=None,
               help="Split the sweep into N chunks and compute one (cluster runs).")
 @THREADS
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Progress bar on stderr (maps done, maps/s, ETA).")
+@PROGRESS
 @click.option("--restart", is_flag=True,
               help="Discard finished sub-chunks of an earlier run instead of resuming.")
 @click.option("--overwrite", is_flag=True,
@@ -145,8 +145,7 @@ def _run_refinement(store, settings, threads, progress, restart, wait, force=Fal
               help="Floor: at least this many contending designs per part (equal-R designs "
                    "once) [default: the config's, else 3].")
 @THREADS
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Progress bar on stderr, one per level.")
+@PROGRESS
 @click.option("--restart", is_flag=True,
               help="Discard finished batches of an earlier refinement instead of resuming.")
 @click.option("--force", is_flag=True,
