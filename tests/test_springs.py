@@ -178,3 +178,29 @@ def test_springs_and_tensions_scaled_together_leave_every_finger_where_it_was(co
     plain = compute_map(design, part, Command(0.6, 1.4), grid=Grid(h=0.1),
                         effects=Effects(finger_collision=collision)).fields
     assert not np.array_equal(one["theta1"], plain["theta1"], equal_nan=True)
+
+
+def test_a_position_off_the_grid_sees_each_finger_s_springs_at_its_own_tension():
+    """One position has one class and one energy whichever asks (the slides evaluate the model
+    off the grid with outcome.point_outcome): with springs and unequal tendon tensions, the
+    class and energy point_outcome gives at each grid point are the map's. Each finger's springs
+    act per unit of its own tension (records.JointSprings), on the grid and off it."""
+    from sweep.compute.layout import hand_record
+    from sweep.kernels.outcome import point_outcome
+
+    design, part = Design(1.4, 1.2, 0.16, 0.1, 0.8), Part(0.4, 0.4)
+    command = Command(0.6, 1.4)
+    effects = Effects(joint_springs=True, spring_k1=0.01, spring_k2=0.02)
+    m = compute_map(design, part, command=command, grid=Grid(h=0.1), effects=effects)
+    finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), effects)
+    hand = hand_record(design.w, command, 0.1, finger)
+    pc, energy = np.asarray(m.fields["point_class"]), np.asarray(m.fields["energy"])
+    checked = 0
+    for j in range(0, pc.shape[0], 3):
+        for i in range(0, pc.shape[1], 3):
+            c, e = point_outcome(m.x[i], m.y[j], finger, solver, blocks, hand)
+            assert c == pc[j, i], (j, i)
+            if np.isfinite(energy[j, i]):
+                assert e == pytest.approx(energy[j, i], rel=1e-12, abs=1e-12), (j, i)
+                checked += 1
+    assert checked > 20
