@@ -49,7 +49,7 @@ FAST_TESTS = ("tests/test_kernel_edges.py", "tests/test_hull.py", "tests/test_an
               "tests/test_tip_contact.py",
               "tests/test_collision.py", "tests/test_springs.py",
               "tests/test_naive_manipulation.py", "tests/test_manipulation.py",
-              "tests/test_accepted_space.py")
+              "tests/test_accepted_space.py", "tests/test_slide_memo.py")
 #: What a mutant's run needs besides the package (tests read configs and docs; test_golden
 #: imports scripts/golden.py).
 COPIED = ("sweep", "tests", "configs", "docs", "scripts", "pyproject.toml")
