@@ -78,9 +78,27 @@ def compile_maps() -> None:
                     np.full(energy.size, -1, dtype=np.int64), np.empty((steps + 1, 2)))
 
 
+def compile_collision_search() -> None:
+    """finger_collision's search over a map (`meeting_search.resolve_collisions` and all below
+    it), with the argument types the maps' pipeline passes: the second process compiles it
+    while the first compiles the fingers, and the first then loads it from the cache."""
+    from ..kernels.meeting_search import resolve_collisions
+    from ..kernels.records import new_finger_arrays, no_settled_fingers
+    from .layout import kernel_records
+
+    design, part = Design(1.2, 0.8, 0.12, 0.1, 0.8), Part(0.4, 0.4)
+    finger, _, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
+    resolve_collisions(np.linspace(0.4, 2.0, 5), finger, 0.8, new_finger_arrays(2, 5, 7),
+                       blocks.finger_collision, no_settled_fingers(),
+                       np.empty((0, 0), dtype=np.bool_))
+
+
 def compile_reductions() -> None:
-    """The manipulation metric's hull reductions (the sweep's chunks and the merge)."""
+    """The manipulation metric's hull reductions (the sweep's chunks and the merge), after
+    finger_collision's search (compile_collision_search)."""
     from .manipulation import PartReduction
+
+    compile_collision_search()
 
     rng = np.random.default_rng(0)
     n = 40
