@@ -33,8 +33,10 @@ warm.compile_maps()          # both kernel sets in this process, to see every si
 warm.compile_reductions()
 import sweep.kernels as k
 found = {}
-for name in ("records", "finger", "hand", "field", "streamline", "hull"):
-    module = getattr(k, name)
+import importlib, pkgutil
+for info in pkgutil.iter_modules(k.__path__):     # every kernel module
+    name = info.name
+    module = importlib.import_module(f"sweep.kernels.{name}")
     for attr, f in vars(module).items():
         if isinstance(f, numba.core.registry.CPUDispatcher) and f.__module__ == module.__name__:
             found[f"{name}.{attr}"] = len(f.signatures)
