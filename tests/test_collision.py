@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from sweep.kernels.meeting import meeting_progress, stopped_finger
 from sweep.kernels.meeting_search import resolve_collisions
-from sweep.kernels.records import FingerCollision, new_finger_arrays, no_settled_fingers
+from sweep.kernels.records import (FingerCollision, FingerState, new_finger_arrays,
+                                   no_settled_fingers)
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
 from sweep.model import (FREE, PROXIMAL_ONLY, RANGE_TOL, TWO_PHALANX, Accuracy, Design,
@@ -382,8 +383,9 @@ def test_one_point_anywhere_gets_the_reference_meeting(l1, l2, w, seed):
         t2 = [TH2MIN if rng.random() < 0.3 else rng.uniform(TH2MIN, TH2MAX) for _ in range(2)]
         modes = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=2)
         k1 = rng.uniform(0.0, l1, size=2)
-        changed, left, right = collide(finger, w, COLLISION, modes[0], t1[0], t2[0], k1[0], 0.0,
-                                       modes[1], t1[1], t2[1], k1[1], 0.0)
+        changed, left, right = collide(finger, w, COLLISION,
+                                       FingerState(modes[0], t1[0], t2[0], k1[0], 0.0, False),
+                                       FingerState(modes[1], t1[1], t2[1], k1[1], 0.0, False))
         p = -1.0
         if settled_fingers_cross(t1[0], t2[0], t1[1], t2[1], finger, w):
             p = meeting_progress(t1[0], t2[0], t1[1], t2[1], finger, w, COLLISION)

@@ -22,7 +22,7 @@ from strategies import paper_table_designs
 from sweep.compute.maps import compute_map, kernel_records
 from sweep.kernels.meeting_search import collide, collide_near, no_slide_context, slide_context
 from sweep.kernels.outcome import point_outcome, point_outcome_below
-from sweep.kernels.records import Hand
+from sweep.kernels.records import FingerState, Hand
 from sweep.kernels.trajectories import (
     EMPTY_KEY,
     memo_for_slide,
@@ -189,7 +189,8 @@ def test_meeting_near_is_collides(l1, l2, w, seed):
         t2 = [th2min if rng.random() < 0.3 else rng.uniform(th2min, th2max) for _ in range(2)]
         modes = rng.choice([FREE, PROXIMAL_ONLY, TWO_PHALANX], size=2)
         k1 = rng.uniform(0.0, l1, size=2)
-        args = (modes[0], t1[0], t2[0], k1[0], 0.0, modes[1], t1[1], t2[1], k1[1], 0.0)
+        args = (FingerState(modes[0], t1[0], t2[0], k1[0], 0.0, False),
+                FingerState(modes[1], t1[1], t2[1], k1[1], 0.0, False))
         assert collide_near(finger, w, collision, context, *args) == \
             collide(finger, w, collision, *args)
 

@@ -15,6 +15,7 @@ from .hull import convex_hull, inscribed_radius
 from .jit import entry, inner
 from .records import (
     cell_finger,
+    FingerState,
     Hand,
     LEFT,
     new_finger_arrays,
@@ -241,6 +242,7 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
     cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
     mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
     mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
+    tip_l, tip_r = left.tip_overlap, right.tip_overlap
     n_cols = ncol + 1 if half else xs.shape[0]
     for j in range(ys.shape[0]):
         y = ys[j]
@@ -271,9 +273,12 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
             a1l, a2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
             a1r, a2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
             if crossed and collision.on:  # (fingers that do not cross are left as settled)
-                changed, new_l, new_r = collide(finger, w, collision, ml, a1l, a2l,
-                                                k1_l[0, j, src_l], k2_l[0, j, src_l], mr, a1r,
-                                                a2r, k1_r[0, j, src_r], k2_r[0, j, src_r])
+                changed, new_l, new_r = collide(
+                    finger, w, collision,
+                    FingerState(ml, a1l, a2l, k1_l[0, j, src_l], k2_l[0, j, src_l],
+                                tip_l[0, j, src_l]),
+                    FingerState(mr, a1r, a2r, k1_r[0, j, src_r], k2_r[0, j, src_r],
+                                tip_r[0, j, src_r]))
                 if changed:
                     if (rests_on_other_finger(new_l[0], new_l[1], new_l[2], finger)
                             or rests_on_other_finger(new_r[0], new_r[1], new_r[2], finger)):

@@ -496,21 +496,29 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled, handled):
 
 
 @entry
-def collide(finger, w, collision, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r, k1r, k2r):
-    """finger_collision at one part position, anywhere (no map around it): (changed, left,
-    right), each side (mode, t1, t2, k1, k2). The reference's answer (`meeting_progress` at a
-    point whose settled fingers cross, model-notes D14), found as a map finds it but with the
-    symmetric closing as the first phase of the contact search (`meeting_at`). Unchanged when
-    the effect is off."""
-    left = (mode_l, t1l, t2l, k1l, k2l)
-    right = (mode_r, t1r, t2r, k1r, k2r)
+def collide(finger, w, collision, left, right):
+    """finger_collision at one part position, anywhere (no map around it), between the settled
+    fingers `left` and `right` (records.FingerState): (changed, left, right), each side
+    (mode, t1, t2, k1, k2). The reference's answer (`meeting_progress` at a point whose
+    settled fingers cross, model-notes D14), found as a map finds it but with the symmetric
+    closing as the first phase of the contact search (`meeting_at`). Unchanged when the effect
+    is off."""
+    settled_l = meeting_state(left)
+    settled_r = meeting_state(right)
     if not collision.on:
-        return False, left, right
-    if mode_l < 0 or mode_r < 0:  # the part overlaps a finger's joint: infeasible
-        return False, left, right
+        return False, settled_l, settled_r
+    if left.mode < 0 or right.mode < 0:  # the part overlaps a finger's joint: infeasible
+        return False, settled_l, settled_r
     work = np.empty(WORK_SIZE)
-    return stopped_pair(meeting_at(t1l, t2l, t1r, t2r, finger, w, collision, work), finger,
-                        left, right)
+    return stopped_pair(meeting_at(left.t1, left.t2, right.t1, right.t2, finger, w, collision,
+                                   work), finger, settled_l, settled_r)
+
+
+@inner
+def meeting_state(state):
+    """(mode, t1, t2, k1, k2) of a records.FingerState: a finger as the meeting's functions pass
+    it (tip_overlap, a flag of the closing, plays no part in a meeting)."""
+    return state.mode, state.t1, state.t2, state.k1, state.k2
 
 
 @inner
@@ -565,21 +573,21 @@ def no_slide_context():
 
 
 @entry
-def collide_near(finger, w, collision, context, mode_l, t1l, t2l, k1l, k2l, mode_r, t1r, t2r,
-                 k1r, k2r):
+def collide_near(finger, w, collision, context, left, right):
     """collide for one of many positions of a map (`context` from slide_context): the meeting
     found as resolve_collisions finds a grid point's (`meeting_of`: the map's symmetric
     closing, then the first contact after it), the reference's answer as collide's."""
-    left = (mode_l, t1l, t2l, k1l, k2l)
-    right = (mode_r, t1r, t2r, k1r, k2r)
-    if not collision.on or mode_l < 0 or mode_r < 0:
-        return False, left, right
+    settled_l = meeting_state(left)
+    settled_r = meeting_state(right)
+    if not collision.on or left.mode < 0 or right.mode < 0:
+        return False, settled_l, settled_r
     _, (starts_crossed, sym_node, sym_meeting), work = context
     if starts_crossed:  # the open fingers touch: nothing is re-run (as the reference)
-        return False, left, right
+        return False, settled_l, settled_r
+    t1l, t2l, t1r, t2r = left.t1, left.t2, right.t1, right.t2
     crossed = settled_fingers_cross_cached(t1l, t2l, t1r, t2r, finger, w, work)
     return stopped_pair(meeting_of(t1l, t2l, t1r, t2r, finger, w, collision, sym_node,
-                                   sym_meeting, work, crossed), finger, left, right)
+                                   sym_meeting, work, crossed), finger, settled_l, settled_r)
 
 
 @inner

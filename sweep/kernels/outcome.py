@@ -21,7 +21,7 @@ from .records import LEFT, RIGHT, side_finger
 from .finger_statics import finger_energy, spring_energy
 from .finger import finger_effects, OVERLAP, solve_finger, took_tip_path
 from .meeting import collide_on_own_paths
-from .meeting_search import collide, collide_near, no_slide_context
+from .meeting_search import collide, collide_near, meeting_state, no_slide_context
 
 
 # ---------------------------------------------------------------------------------------------
@@ -80,9 +80,8 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
         # on the fingers' own paths (D29); no lower bound: on the tip path t1 may grow
-        _, left, right = collide_on_own_paths(
-            x, y, finger, solver, effects, hand, collision,
-            (sl.mode, sl.t1, sl.t2, sl.k1, sl.k2), (sr.mode, sr.t1, sr.t2, sr.k1, sr.k2))
+        _, left, right = collide_on_own_paths(x, y, finger, solver, effects, hand, collision,
+                                              meeting_state(sl), meeting_state(sr))
         return outcome_of(y, left, right, finger, hand, effects.joint_springs)
     if collision.on and not effects.joint_springs.on and hand.f_left >= 0.0 \
             and hand.f_right >= 0.0:
@@ -92,11 +91,9 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
             if e > bound:
                 return c, e, False
     if not context[0]:
-        _, left, right = collide(finger, w, collision, sl.mode, sl.t1, sl.t2, sl.k1, sl.k2,
-                                 sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+        _, left, right = collide(finger, w, collision, sl, sr)
     else:
-        _, left, right = collide_near(finger, w, collision, context, sl.mode, sl.t1, sl.t2,
-                                      sl.k1, sl.k2, sr.mode, sr.t1, sr.t2, sr.k1, sr.k2)
+        _, left, right = collide_near(finger, w, collision, context, sl, sr)
     return outcome_of(y, left, right, finger, hand, effects.joint_springs)
 
 
