@@ -14,7 +14,7 @@ from ..grid import (ENTRY_CAPACITY, REDUCTIONS, SCENARIO_A_EXTREMES,
                    grid_index_bounds, palm_half_width_steps, part_lattice_columns)
 from ..config.scene import Scene, grid_points
 from ..kernels import many_maps, one_map
-from ..kernels.records import (ManipulationOut, RIGHT, LEFT, new_force_arrays,
+from ..kernels.records import (CellMaps, ManipulationOut, RIGHT, LEFT, new_force_arrays,
                                new_outcome_arrays, new_finger_arrays, no_force_arrays,
                                no_manipulation, no_scenario_c, no_settled_fingers)
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, ModelInputError, Part
@@ -30,6 +30,31 @@ from .threads import over_ranges
 def _cell_design_part(cell, w: float) -> tuple[Design, Part]:
     l1, l2, r1, r2, r, mu = (float(v) for v in cell)
     return Design(l1, l2, r1, r2, float(w)), Part(r, mu)
+
+
+def cell_maps(cells: np.ndarray, widths: np.ndarray, h: float, command: Command,
+              limits: Limits) -> CellMaps | None:
+    """The kernels' record of `cells` (as `cells_as_kernels_read` gives them) at every width:
+    each map on the default whole-reach grid of MODEL 8 at spacing h, columns -N .. N and rows
+    0 .. M (sized without allocating them); None when a palm half-width is not a whole number
+    of grid steps (no shared field then)."""
+    steps = [palm_half_width_steps(w, h) for w in widths]
+    if any(s is None for s in steps):
+        return None
+    bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
+              for c in cells]
+    return CellMaps(
+        cells=cells, widths=widths, palm_steps=np.array(steps, dtype=np.int64),
+        ncols=np.array([[b[1] for b in row] for row in bounds], dtype=np.int64),
+        nys=np.array([row[0][3] + 1 for row in bounds], dtype=np.int64), h=float(h),
+        f_left=float(command.f_left), f_right=float(command.f_right),
+        theta2_min=float(limits.theta2_min), theta2_max=float(limits.theta2_max))
+
+
+def cell_maps_rows(maps: CellMaps, rows: np.ndarray) -> CellMaps:
+    """The CellMaps of the cells `rows` of `maps`."""
+    return maps._replace(cells=np.ascontiguousarray(maps.cells[rows]), ncols=maps.ncols[rows],
+                         nys=maps.nys[rows])
 
 
 def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: float,
@@ -49,18 +74,11 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
         return out
     want = (np.ones((cells.shape[0], widths.size), dtype=np.bool_) if want is None else
             np.ascontiguousarray(want, dtype=np.bool_).reshape(cells.shape[0], widths.size))
-    steps = [palm_half_width_steps(w, h) for w in widths]
     _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
                                        effects)
-    if all(s is not None for s in steps):
-        # whole-reach grids: columns -N..N, rows 0..M (sized without allocating them)
-        bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
-                  for c in cells]
-        ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
-        nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
-        _summarize_on_shared_fields(cells, widths, np.array(steps, dtype=np.int64), ncols, nys, h,
-                                    command, limits, solver, blocks, out, want,
-                                    no_manipulation())
+    maps = cell_maps(cells, widths, h, command, limits)
+    if maps is not None:
+        _summarize_on_shared_fields(maps, solver, blocks, out, want, no_manipulation())
         return out
     for c in range(cells.shape[0]):  # palm half-width off the grid: each map on its own
         for k, w in enumerate(widths):
@@ -83,27 +101,24 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
     return out
 
 
-def _summarize_on_shared_fields(cells, widths, palm_steps, ncols, nys, h, command, limits,
-                                solver, blocks, out, want, manip) -> None:
-    """kernels.many_maps.summarize_cells over every cell, ranges of cells on several threads
-    (threads.over_ranges)."""
+def _summarize_on_shared_fields(maps: CellMaps, solver, blocks, out, want, manip) -> None:
+    """kernels.many_maps.summarize_cells over every cell of `maps`, ranges of cells on several
+    threads (threads.over_ranges)."""
 
     def cells_in_range(first, last):
-        many_maps.summarize_cells(cells, first, last, widths, palm_steps, ncols, nys, float(h),
-                                  float(command.f_left), float(command.f_right),
-                                  limits.theta2_min, limits.theta2_max, solver, blocks, out, want,
-                                  manip)
+        many_maps.summarize_cells(maps, first, last, solver, blocks, out, want, manip)
 
     # The kernel keeps caches across the cells of a range when finger_collision (the meetings)
     # or Scenario C (the low-friction field) is on: then one range per thread, of equal grid
     # points (what a cell costs, to first order), as a smaller range would start them anew;
     # else a cell per range, each thread taking the next as it finishes one (the best balance:
     # docs/performance.md, "The sweep's threads").
+    n = maps.cells.shape[0]
     if blocks.finger_collision.on or manip.c_mu_low.shape[0] > 0:
-        points = nys * ((2 * ncols + 1) * want).sum(axis=1)
-        over_ranges(cells.shape[0], cells_in_range, ranges_per_thread=1, costs=points)
+        points = maps.nys * ((2 * maps.ncols + 1) * want).sum(axis=1)
+        over_ranges(n, cells_in_range, ranges_per_thread=1, costs=points)
     else:
-        over_ranges(cells.shape[0], cells_in_range, ranges_per_thread=cells.shape[0])
+        over_ranges(n, cells_in_range, ranges_per_thread=n)
 
 
 def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
@@ -168,16 +183,12 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     widths = np.ascontiguousarray(widths, dtype=np.float64).reshape(-1)
     items = np.asarray(items, dtype=np.int64)
     n = cells.shape[0]
-    steps = [palm_half_width_steps(w, h) for w in widths]
-    if any(s is None for s in steps):
+    maps = cell_maps(cells, widths, h, command, limits)
+    if maps is None:
         raise ModelInputError("the manipulation metric needs every palm half-width to be a whole "
                               f"number of grid steps (w a multiple of 2h = {2 * h:g})")
     _, solver, blocks = kernel_records(*_cell_design_part(cells[0], widths[0]), limits, accuracy,
                                        effects)
-    bounds = [[grid_index_bounds(*_cell_design_part(c, w), Grid(h=h)) for w in widths]
-              for c in cells]
-    ncols = np.array([[b[1] for b in row] for row in bounds], dtype=np.int64)
-    nys = np.array([row[0][3] + 1 for row in bounds], dtype=np.int64)
     lattice_ncol = np.ascontiguousarray(lattice_ncol, dtype=np.int64)
     if mu_low is not None:
         mu_low = contact_friction(mu_low, effects)
@@ -185,8 +196,8 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
     def run(rows, capacity):
         out = np.zeros((rows.size, widths.size, len(SUMMARY_FIELDS)))
         m = rows.size
-        shape = ((m, int(nys[rows].max()), 2 * int(ncols[rows].max()) + 1) if pose_values
-                 else (0, 0, 0))
+        shape = ((m, int(maps.nys[rows].max()), 2 * int(maps.ncols[rows].max()) + 1)
+                 if pose_values else (0, 0, 0))
         scenario_c = no_scenario_c() if mu_low is None else (
             np.array([mu_low], dtype=np.float64), np.zeros(m),
             np.zeros(shape))
@@ -196,9 +207,7 @@ def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: 
             np.zeros((m, capacity), dtype=np.bool_), np.zeros(m, dtype=np.int64), np.zeros(m),
             lattice_ncol[rows], np.array(SCENARIO_A_EXTREMES, dtype=np.float64),
             np.zeros(shape), *scenario_c)
-        _summarize_on_shared_fields(np.ascontiguousarray(cells[rows]), widths,
-                                    np.array(steps, dtype=np.int64), ncols[rows], nys[rows], h,
-                                    command, limits, solver, blocks, out,
+        _summarize_on_shared_fields(cell_maps_rows(maps, rows), solver, blocks, out,
                                     np.ones((rows.size, widths.size), dtype=np.bool_), manip)
         return out, manip
 

@@ -15,12 +15,17 @@ from .hull import convex_hull, inscribed_radius
 from .jit import entry, inner
 from .records import (
     cell_finger,
+    FieldStatics,
     FingerState,
     Hand,
     LEFT,
+    MapPlace,
     new_finger_arrays,
     new_outcome_arrays,
+    new_pose_forces,
+    no_field_statics,
     no_force_arrays,
+    no_pose_forces,
     no_settled_fingers,
     RIGHT,
     SettledFingers,
@@ -50,7 +55,6 @@ from .one_map import (
     fingers_touch,
     HALF_ROWS,
     map_from_fingers,
-    MIRRORED,
     SCRATCH_ANGLES,
     SHARED,
     STABLE_POINTS,
@@ -146,7 +150,7 @@ def shared_finger_links(shared, finger):
 def shared_finger_links_and_statics(shared, finger):
     """Per point of a cell's shared finger field, what every width's map reads from it for the
     manipulation metric: the link vectors (`shared_finger_links`) and the finger's statics per
-    unit tension (determined, resultant x, y)."""
+    unit tension (determined, resultant x, y): records.FieldStatics."""
     ny, nm = shared.mode.shape[1], shared.mode.shape[2]
     links = shared_finger_links(shared, finger)
     statics = np.empty((3, ny, nm))
@@ -156,21 +160,25 @@ def shared_finger_links_and_statics(shared, finger):
             statics[0, j, m] = 1.0 if st.determined else 0.0
             statics[1, j, m] = st.resultant_x
             statics[2, j, m] = st.resultant_y
-    return links, statics
+    return FieldStatics(links, statics)
 
 
 @inner
-def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo, step, ncol,
-                           ncol_max, k, manip, c, a_count, a_fx, a_fy):
+def collect_counted_forces(xs, ys, finger, hand, outs, fingers, shared, place, manip, c, forces):
     """The counted poses of one map (MODEL 10): reached, not touching the palm, not in
     equilibrium, S_geo > 0, both fingers' forces determined by statics (model-notes D9; not
     where finger_collision stopped a finger on the other, D17: `fingers` are the map's, after
     the effect). Elsewhere the fingers are the shared field's, whose links and statics are
-    precomputed. Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces
-    (each command F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose
-    buffers. Forces are the fingers' per-unit-tension resultants (world frame) times S_geo."""
+    precomputed (`shared`, records.FieldStatics, read where `place` says: records.MapPlace).
+    Scenario B entries (command 1/1) go into row c of `manip`; Scenario A forces (each command
+    F_left of manip.a_commands, F_right = 2 - F_left) into the cell's per-pose `forces`
+    (records.PoseForces). Forces are the fingers' per-unit-tension resultants (world frame)
+    times S_geo."""
     capacity = manip.pose.shape[1]
     n_lattice = 2 * manip.lattice_ncol[c] + 1
+    links, statics = shared.links, shared.statics
+    m_lo, step, ncol, ncol_max = place.m_lo, place.palm_steps, place.ncol, place.ncol_max
+    a_count, a_fx, a_fy = forces.count, forces.fx, forces.fy
     for j in range(ys.shape[0]):
         y = ys[j]
         for col in range(xs.shape[0]):
@@ -204,7 +212,7 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
                 manip.pose[c, e] = j * n_lattice + i + manip.lattice_ncol[c]
                 manip.fx[c, e] = (lx + rx) * s_geo
                 manip.fy[c, e] = (ly + ry) * s_geo
-                manip.width[c, e] = k
+                manip.width[c, e] = place.width
                 manip.crossed[c, e] = crossed
             manip.n_entries[c] = e + 1
             a = col - ncol + ncol_max
@@ -216,14 +224,14 @@ def collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, 
 
 
 @inner
-def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, statics_l, links_r,
-                        statics_r, m_lo, step, ncol, ncol_max, commands, scratch, count, fx, fy,
-                        mirror, half):
+def collect_pair_forces(xs, ys, finger, hand, effects, left, left_statics, right, right_statics,
+                        place, commands, forces, half):
     """Scenario C (MODEL 10): the counted poses of one map whose left finger touches the part
     with friction hand.mu_left and the right with hand.mu_right (the palm: finger.mu_s), the
     left finger read from the shared field `left` (solved at that friction, with its links and
-    statics), the right from `right`; every command's force (F_left of `commands`, F_right = 2 -
-    F_left) into the per-pose buffers.
+    statics `left_statics`, records.FieldStatics), the right from `right`, where `place` says
+    (records.MapPlace); every command's force (F_left of `commands`, F_right = 2 - F_left) into
+    the per-pose `forces` (records.PoseForces).
 
     The count rule of collect_counted_forces, pose by pose, with the same functions, so that a
     pair's poses are those of its map (`compute_map(mu_left=, mu_right=)`): settled fingers
@@ -231,7 +239,7 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
     fingers cross (meeting_search.collide: a finger stopped on the other leaves the pose
     undetermined, D17), then the part's equilibrium with each contact's own cone.
 
-    `mirror`: each counted pose x = i h also gives the pose -x of the swapped pair (left with
+    Each counted pose x = i h also gives the pose -x of the swapped pair (left with
     hand.mu_right, right with hand.mu_left), its mirror image (the model is mirror-symmetric,
     MODEL 11; the fields, links and statics are the same numbers, and its forces are formed as
     the swapped pair's own would be, bit for bit); with `half` (a pair that is its own swap),
@@ -240,9 +248,14 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
     w = hand.w
     collision = effects.finger_collision
     cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
+    scratch = np.empty(SCRATCH_ANGLES)
     mode_l, t1_l, t2_l, k1_l, k2_l = left.mode, left.t1, left.t2, left.k1, left.k2
     mode_r, t1_r, t2_r, k1_r, k2_r = right.mode, right.t1, right.t2, right.k1, right.k2
     tip_l, tip_r = left.tip_overlap, right.tip_overlap
+    links_l, statics_l = left_statics.links, left_statics.statics
+    links_r, statics_r = right_statics.links, right_statics.statics
+    m_lo, step, ncol, ncol_max = place.m_lo, place.palm_steps, place.ncol, place.ncol_max
+    count, fx, fy = forces.count, forces.fx, forces.fy
     n_cols = ncol + 1 if half else xs.shape[0]
     for j in range(ys.shape[0]):
         y = ys[j]
@@ -300,7 +313,7 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
                 fx[j, a, n] = (f_left * lx + (2.0 - f_left) * rx) * s_geo
                 fy[j, a, n] = (f_left * ly + (2.0 - f_left) * ry) * s_geo
                 count[j, a] = n + 1
-            if mirror and not (half and i == 0):
+            if not (half and i == 0):
                 # the swapped pair at -x: its left finger is this right one mirrored (x force
                 # -rx), its right finger this left one (x force -lx)
                 a = -i + ncol_max
@@ -312,8 +325,10 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, right, links_l, sta
 
 
 @inner
-def append_forces(count, fx, fy, more_count, more_fx, more_fy):
-    """Each pose's forces in the `more` buffers appended to its own."""
+def append_forces(forces, more):
+    """Each pose's forces in `more` appended to its own in `forces` (records.PoseForces)."""
+    count, fx, fy = forces.count, forces.fx, forces.fy
+    more_count, more_fx, more_fy = more.count, more.fx, more.fy
     for j in range(count.shape[0]):
         for a in range(count.shape[1]):
             n = count[j, a]
@@ -326,11 +341,10 @@ def append_forces(count, fx, fy, more_count, more_fx, more_fy):
 @inner
 def friction_field(finger, mu, solver, effects, palm_steps, ncols, ny, h):
     """The shared finger field of a cell with the finger's contacts at friction `mu`, and its
-    links and statics (Scenario C's low-friction surface)."""
+    links and statics, records.FieldStatics (Scenario C's low-friction surface)."""
     switched = with_friction(finger, mu)
     field, _, _ = shared_finger_field(switched, solver, effects, palm_steps, ncols, ny, h)
-    links, statics = shared_finger_links_and_statics(field, switched)
-    return field, links, statics
+    return field, shared_finger_links_and_statics(field, switched)
 
 
 @inner
@@ -367,25 +381,25 @@ def pose_radius_sum(count, fx, fy, pose_value, c):
 
 
 @entry(nogil=True)
-def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f_right, theta2_min,
-                    theta2_max, solver, effects, out, want, manip):
-    """The maps of cells first .. last - 1 at every width, each cell's from one shared finger
-    field, in order on the calling thread, without the GIL (`sweep.compute.threads` runs
-    ranges of cells on several threads). One function, not one per cell: each level of the
-    call tree above the model compiles the whole tree below it again (docs/performance.md).
+def summarize_cells(maps, first, last, solver, effects, out, want, manip):
+    """The maps of cells first .. last - 1 of `maps` (records.CellMaps: the cells, the widths
+    and the layout of each map) at every width, each cell's from one shared finger field, in
+    order on the calling thread, without the GIL (`sweep.compute.threads` runs ranges of cells
+    on several threads). One function, not one per cell: each level of the call tree above the
+    model compiles the whole tree below it again (docs/performance.md).
 
-    cells: (n, 6) l1 l2 r1 r2 r mu; out: (n, n_w, N_SUMMARY); want: bool (n, n_w), the maps to
-    compute (out[c, k] of another stays as it was: the refinement asks for a few widths of a
-    cell, and a width's map costs far more than its share of the field). palm_steps[k] is the palm
-    half-width of width k in grid steps; the map of cell c at width k has columns
-    i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h, j = 0 .. nys[c] - 1. With `manip`
-    (a ManipulationOut with a row per cell; without: records.no_manipulation()) the contact
-    forces are computed too and row c of `manip` receives the cell's manipulation metric data
-    (MODEL 10), Scenario C's too when `manip` has its low friction (a second shared field at
-    that friction, the pairs with a switched finger: collect_pair_forces). With
-    finger_collision, this call's memo of meetings (records.SettledFingers: (n_w, y, x, 5), one
-    map per width, and the l1, l2 of the cell that filled it) is filled while the next cell
-    has the same links and cleared when the links change."""
+    out: (n, n_w, N_SUMMARY); want: bool (n, n_w), the maps to compute (out[c, k] of another
+    stays as it was: the refinement asks for a few widths of a cell, and a width's map costs far
+    more than its share of the field). With `manip` (a ManipulationOut with a row per cell;
+    without: records.no_manipulation()) the contact forces are computed too and row c of
+    `manip` receives the cell's manipulation metric data (MODEL 10), Scenario C's too when
+    `manip` has its low friction (a second shared field at that friction, the pairs with a
+    switched finger: collect_pair_forces). With finger_collision, this call's memo of meetings
+    (records.SettledFingers: (n_w, y, x, 5), one map per width, and the l1, l2 of the cell that
+    filled it) is filled while the next cell has the same links and cleared when the links
+    change."""
+    cells, ws, palm_steps, ncols, nys, h = (maps.cells, maps.widths, maps.palm_steps, maps.ncols,
+                                            maps.nys, maps.h)
     manipulation = wants_manipulation(manip)
     scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
@@ -394,20 +408,16 @@ def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f
     if collision and last > first:   # as large as the largest map of these cells
         memo = np.empty((ws.shape[0], nys[first:last].max(), 2 * ncols[first:last].max() + 1, 5))
     memo_key = np.full(2, np.nan)
-    scratch = np.empty(SCRATCH_ANGLES)
     # Scenario C's low-friction field depends on the cell without its mu (the cells of one
     # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
     low_key = np.full(5, np.nan)
     low = new_finger_arrays(np.int64(1), np.int64(0), np.int64(0))
-    low_links = np.empty((4, 0, 0))
-    low_statics = np.empty((3, 0, 0))
+    low_statics = no_field_statics()
     # the pair (mu_low, mu_low) does not depend on the part's mu either (palm poses never
     # count): its forces, kept with the field (the manipulation metric wants every width)
-    low_count = np.zeros((0, 0), dtype=np.int64)
-    low_fx = np.empty((0, 0, 0))
-    low_fy = np.empty((0, 0, 0))
+    low_forces = no_pose_forces()
     for c in range(first, last):
-        finger = cell_finger(cells, c, theta2_min, theta2_max)
+        finger = cell_finger(cells, c, maps.theta2_min, maps.theta2_max)
         ny = nys[c]
         cell_ncols = ncols[c]
         memo_next = (c + 1 < last and cells[c + 1, 0] == cells[c, 0]
@@ -416,46 +426,36 @@ def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f
                                                ny, h)
         ncol_max = np.int64(0)
         slots = 0
-        a_count = np.zeros((0, 0), dtype=np.int64)
-        a_fx = np.empty((0, 0, 0))
-        a_fy = np.empty((0, 0, 0))
-        links = np.empty((4, 0, 0))
-        statics = np.empty((3, 0, 0))
+        a_forces = no_pose_forces()
+        shared_statics = no_field_statics()
         if manipulation:
             for k in range(ws.shape[0]):
                 ncol_max = max(ncol_max, cell_ncols[k])
             slots = ws.shape[0] * manip.a_commands.shape[0]
-            a_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
-            a_fx = np.empty((ny, 2 * ncol_max + 1, slots))
-            a_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+            a_forces = new_pose_forces(ny, 2 * ncol_max + 1, slots)
             manip.n_entries[c] = 0
-            links, statics = shared_finger_links_and_statics(shared, finger)
+            shared_statics = shared_finger_links_and_statics(shared, finger)
         elif collision:
-            links = shared_finger_links(shared, finger)
+            shared_statics = FieldStatics(shared_finger_links(shared, finger),
+                                          np.empty((3, 0, 0)))
         # Scenario C: the pairs with a finger on the low friction, unless it is the part's own
         # (then the four pairs are A's one, and C is A)
         mu_low = manip.c_mu_low[0] if scenario_c else finger.mu_s
         switching = mu_low != finger.mu_s
-        c_count = np.zeros((0, 0), dtype=np.int64)
-        c_fx = np.empty((0, 0, 0))
-        c_fy = np.empty((0, 0, 0))
+        c_forces = no_pose_forces()
         fresh_low = False
         if switching:
-            c_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
-            c_fx = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
-            c_fy = np.empty((ny, 2 * ncol_max + 1, 4 * slots))
+            c_forces = new_pose_forces(ny, 2 * ncol_max + 1, 4 * slots)
             key = (finger.l1, finger.l2, finger.r1, finger.r2, finger.r)
             fresh_low = not (low_key[0] == key[0] and low_key[1] == key[1]
                              and low_key[2] == key[2] and low_key[3] == key[3]
                              and low_key[4] == key[4])
             if fresh_low:
-                low, low_links, low_statics = friction_field(finger, mu_low, solver, effects,
-                                                             palm_steps, cell_ncols, ny, h)
+                low, low_statics = friction_field(finger, mu_low, solver, effects, palm_steps,
+                                                  cell_ncols, ny, h)
                 for q in range(5):
                     low_key[q] = key[q]
-                low_count = np.zeros((ny, 2 * ncol_max + 1), dtype=np.int64)
-                low_fx = np.empty((ny, 2 * ncol_max + 1, slots))
-                low_fy = np.empty((ny, 2 * ncol_max + 1, slots))
+                low_forces = new_pose_forces(ny, 2 * ncol_max + 1, slots)
         memo_read = False
         if collision:
             memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
@@ -466,41 +466,43 @@ def summarize_cells(cells, first, last, ws, palm_steps, ncols, nys, h, f_left, f
         for k in range(ws.shape[0]):
             if not want[c, k]:
                 continue
-            xs, fingers = gather_fingers(shared, m_lo, palm_steps[k], cell_ncols[k], ny, h)
+            place = MapPlace(k, m_lo, palm_steps[k], cell_ncols[k], ncol_max)
+            xs, fingers = gather_fingers(shared, m_lo, place.palm_steps, place.ncol, ny, h)
             outs = new_outcome_arrays(ny, xs.shape[0])
             stack = np.empty(ny * xs.shape[0], dtype=np.int64)
-            hand = Hand(ws[k], f_left, f_right, h, finger.mu_s, finger.mu_s)
+            hand = Hand(ws[k], maps.f_left, maps.f_right, h, finger.mu_s, finger.mu_s)
             settled = no_settled_fingers()
             if collision:  # the settled fingers' links, as gather_fingers reads the shared field:
                 # column c (world i = c - ncol) at offset -i - s (left), i - s (right), less m_lo
-                left_start = cell_ncols[k] - palm_steps[k] - m_lo
-                right_start = -cell_ncols[k] - palm_steps[k] - m_lo
-                settled = SettledFingers(True, links, left_start, -1, right_start, 1, memo[k],
-                                         memo_read, memo_next)
+                left_start = place.ncol - place.palm_steps - m_lo
+                right_start = -place.ncol - place.palm_steps - m_lo
+                settled = SettledFingers(True, shared_statics.links, left_start, -1, right_start,
+                                         1, memo[k], memo_read, memo_next)
             map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, no_forces,
                              stack, out[c, k], STABLE_POINTS, ALL_OUTPUTS, ALL_OUTPUTS, settled)
             if manipulation:
-                collect_counted_forces(xs, ys, finger, hand, outs, fingers, links, statics, m_lo,
-                                       palm_steps[k], cell_ncols[k], ncol_max, k, manip, c, a_count,
-                                       a_fx, a_fy)
+                collect_counted_forces(xs, ys, finger, hand, outs, fingers, shared_statics, place,
+                                       manip, c, a_forces)
             if switching:
                 # (mu_low, mu_s), and its mirror image (mu_s, mu_low)
                 collect_pair_forces(
-                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, finger.mu_s),
-                    effects, low, shared, low_links, low_statics, links, statics, m_lo,
-                    palm_steps[k], cell_ncols[k], ncol_max, manip.a_commands, scratch, c_count,
-                    c_fx, c_fy, MIRRORED, WHOLE_ROWS)
+                    xs, ys, finger, Hand(ws[k], maps.f_left, maps.f_right, h, mu_low,
+                                         finger.mu_s),
+                    effects, low, low_statics, shared, shared_statics, place, manip.a_commands,
+                    c_forces, WHOLE_ROWS)
             if fresh_low:  # (mu_low, mu_low), its own mirror image: half the poses
                 collect_pair_forces(
-                    xs, ys, finger, Hand(ws[k], f_left, f_right, h, mu_low, mu_low), effects,
-                    low, low, low_links, low_statics, low_links, low_statics, m_lo, palm_steps[k],
-                    cell_ncols[k], ncol_max, manip.a_commands, scratch, low_count, low_fx,
-                    low_fy, MIRRORED, HALF_ROWS)
+                    xs, ys, finger, Hand(ws[k], maps.f_left, maps.f_right, h, mu_low, mu_low),
+                    effects, low, low_statics, low, low_statics, place, manip.a_commands,
+                    low_forces, HALF_ROWS)
         if manipulation:
-            manip.a_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.a_pose_value, c)
+            manip.a_metric[c] = pose_radius_sum(a_forces.count, a_forces.fx, a_forces.fy,
+                                                manip.a_pose_value, c)
         if switching:
-            append_forces(c_count, c_fx, c_fy, low_count, low_fx, low_fy)
-            append_forces(c_count, c_fx, c_fy, a_count, a_fx, a_fy)
-            manip.c_metric[c] = pose_radius_sum(c_count, c_fx, c_fy, manip.c_pose_value, c)
+            append_forces(c_forces, low_forces)
+            append_forces(c_forces, a_forces)
+            manip.c_metric[c] = pose_radius_sum(c_forces.count, c_forces.fx, c_forces.fy,
+                                                manip.c_pose_value, c)
         elif scenario_c:  # mu_low is the part's own: the same forces as A
-            manip.c_metric[c] = pose_radius_sum(a_count, a_fx, a_fy, manip.c_pose_value, c)
+            manip.c_metric[c] = pose_radius_sum(a_forces.count, a_forces.fx, a_forces.fy,
+                                                manip.c_pose_value, c)

@@ -70,10 +70,10 @@ S_COLLISION_CHANGED = SUMMARY_INDEX["n_collision_changed"]
 SCRATCH_ANGLES = 16  # cone-edge scratch of the equilibrium test (at most 10 edges)
 # Constant arguments of kernel calls (NumPy scalars: records.LEFT): a map's per-point outputs
 # everywhere or only where the part is stable (summaries: `every_point`), its equilibrium and
-# caging outputs on, the only finger of a shared field, a part taken as contained.
+# caging outputs on, the only finger of a shared field, a part taken as contained, a friction
+# pair's poses visited on whole rows or on their half x <= 0 (many_maps.collect_pair_forces).
 EVERY_POINT, STABLE_POINTS = np.bool_(True), np.bool_(False)
 ALL_OUTPUTS = np.bool_(True)
-MIRRORED = np.bool_(True)
 WHOLE_ROWS = np.bool_(False)
 HALF_ROWS = np.bool_(True)
 SHARED = np.int64(0)

@@ -165,6 +165,76 @@ class Hand(NamedTuple):
     mu_right: float
 
 
+class CellMaps(NamedTuple):
+    """A batch of cells and the layout of their maps at every width of the sweep: what
+    `many_maps.summarize_cells` computes (`compute.batch.cell_maps` builds it). The map of cell
+    c at width k has columns i = -ncols[c, k] .. ncols[c, k] and rows y_j = r + j h,
+    j = 0 .. nys[c] - 1."""
+
+    cells: np.ndarray       # (n, 6) l1 l2 r1 r2 r mu (grid.CELL_COLUMNS), mu the contacts'
+    widths: np.ndarray      # (n_w,) palm widths w
+    palm_steps: np.ndarray  # (n_w,) int64: width k's palm half-width w/2 in grid steps
+    ncols: np.ndarray       # (n, n_w) int64
+    nys: np.ndarray         # (n,) int64
+    h: float                # grid spacing
+    f_left: float           # the command's tendon tensions
+    f_right: float
+    theta2_min: float       # distal joint limits (rad), as FingerModel's
+    theta2_max: float
+
+
+class MapPlace(NamedTuple):
+    """Where the map of one width of a cell sits in what the cell's maps share: world column i
+    (-ncol .. ncol) of the map reads offset i - palm_steps of the cell's shared finger field
+    for the right finger and -i - palm_steps for the left (a shift and a mirror), at index
+    offset - m_lo (the field's first offset); it is column i + ncol_max of the cell's per-pose
+    force buffers (PoseForces, on the grid of the cell's widest map)."""
+
+    width: int        # the width's index k
+    m_lo: int
+    palm_steps: int   # palm half-width in grid steps
+    ncol: int
+    ncol_max: int
+
+
+class FieldStatics(NamedTuple):
+    """Per offset of a cell's shared finger field (1, y, offset), what every width's map reads of
+    it instead of recomputing: the link vectors (4, y, offset: l1 cos t1, l1 sin t1, l2 cos phi,
+    l2 sin phi) and the finger's statics per unit tension in its own frame (3, y, offset:
+    determined 1 or 0, resultant x, resultant y), (3, 0, 0) when only the links are needed."""
+
+    links: np.ndarray
+    statics: np.ndarray
+
+
+class PoseForces(NamedTuple):
+    """A cell's forces per pose for the manipulation metric (MODEL 10), on (y, pose column):
+    count[j, a] forces so far, their components fx[j, a, :count], fy[j, a, :count]."""
+
+    count: np.ndarray   # (y, columns) int64
+    fx: np.ndarray      # (y, columns, slots)
+    fy: np.ndarray
+
+
+@inner
+def new_pose_forces(ny, ncols, slots):
+    """Empty PoseForces of ny x ncols poses, room for `slots` forces each."""
+    return PoseForces(np.zeros((ny, ncols), dtype=np.int64), np.empty((ny, ncols, slots)),
+                      np.empty((ny, ncols, slots)))
+
+
+@inner
+def no_pose_forces():
+    """The PoseForces of a cell whose forces are not collected: no poses."""
+    return PoseForces(np.zeros((0, 0), dtype=np.int64), np.empty((0, 0, 0)), np.empty((0, 0, 0)))
+
+
+@inner
+def no_field_statics():
+    """The FieldStatics of a cell that needs neither links nor statics."""
+    return FieldStatics(np.empty((4, 0, 0)), np.empty((3, 0, 0)))
+
+
 @entry
 def cell_finger(cells, c, theta2_min, theta2_max):
     """The FingerModel of row c of `cells` (n, 6): its columns l1 l2 r1 r2 r mu
