@@ -93,11 +93,12 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
             fingers = new_finger_arrays(2, ny, nx)
             one_map.finger_rows(0, ny, dx_left, g.y, finger, solver, blocks, fingers, LEFT)
             one_map.finger_rows(0, ny, dx_right, g.y, finger, solver, blocks, fingers, RIGHT)
-            one_map.map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers,
-                                     new_outcome_arrays(ny, nx), no_force_arrays(),
-                                     np.empty(ny * nx, dtype=np.int64), out[c, k],
-                                     one_map.STABLE_POINTS, one_map.ALL_OUTPUTS,
-                                     one_map.ALL_OUTPUTS, no_settled_fingers())
+            one_map.map_from_fingers(
+                xs=g.x, ys=g.y, finger=finger, solver=solver, hand=hand, effects=blocks,
+                fingers=fingers, outs=new_outcome_arrays(ny, nx), forces=no_force_arrays(),
+                stack=np.empty(ny * nx, dtype=np.int64), summary=out[c, k],
+                every_point=one_map.STABLE_POINTS, equilibrium=one_map.ALL_OUTPUTS,
+                caging=one_map.ALL_OUTPUTS, settled=no_settled_fingers())
     return out
 
 
@@ -142,11 +143,12 @@ def cell_map_fields(cell, w: float, command: Command, h: float, limits: Limits,
     outs = new_outcome_arrays(ny, xs.shape[0])
     force_arrays = new_force_arrays(ny, xs.shape[0]) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
-    one_map.map_from_fingers(xs, ys, finger, solver, hand_record(w, command, h, finger),
-                             blocks, fingers, outs, force_arrays,
-                             np.empty(ny * xs.shape[0], dtype=np.int64), summary,
-                             one_map.EVERY_POINT, one_map.ALL_OUTPUTS, one_map.ALL_OUTPUTS,
-                             no_settled_fingers())
+    one_map.map_from_fingers(
+        xs=xs, ys=ys, finger=finger, solver=solver, hand=hand_record(w, command, h, finger),
+        effects=blocks, fingers=fingers, outs=outs, forces=force_arrays,
+        stack=np.empty(ny * xs.shape[0], dtype=np.int64), summary=summary,
+        every_point=one_map.EVERY_POINT, equilibrium=one_map.ALL_OUTPUTS,
+        caging=one_map.ALL_OUTPUTS, settled=no_settled_fingers())
     return xs, ys, map_fields(fingers, outs, force_arrays if forces else None), \
         summary_attrs(summary)
 

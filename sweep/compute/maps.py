@@ -66,10 +66,12 @@ def compute_map(design: Design, part: Part, command: Command = Command(), grid: 
     outs = new_outcome_arrays(ny, nx)
     force_arrays = new_force_arrays(ny, nx) if forces else no_force_arrays()
     summary = np.empty(len(SUMMARY_FIELDS))
-    map_from_fingers(g.x, g.y, finger, solver, hand, blocks, fingers, outs, force_arrays,
-                     np.empty(ny * nx if outputs.caging else 0, dtype=np.int64), summary,
-                     EVERY_POINT, bool(outputs.equilibrium), bool(outputs.caging),
-                     no_settled_fingers())
+    map_from_fingers(xs=g.x, ys=g.y, finger=finger, solver=solver, hand=hand, effects=blocks,
+                     fingers=fingers, outs=outs, forces=force_arrays,
+                     stack=np.empty(ny * nx if outputs.caging else 0, dtype=np.int64),
+                     summary=summary, every_point=EVERY_POINT,
+                     equilibrium=bool(outputs.equilibrium), caging=bool(outputs.caging),
+                     settled=no_settled_fingers())
     finished = time.perf_counter()
 
     attrs = summary_attrs(summary, outputs, effects)
