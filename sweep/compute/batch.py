@@ -169,7 +169,7 @@ def _splice(whole: np.ndarray, redone: np.ndarray, rows: np.ndarray) -> np.ndarr
 
 def manipulation_cells(cells: np.ndarray, widths: np.ndarray, h: float, limits: Limits,
                        accuracy: Accuracy, effects: Effects, items: np.ndarray,
-                       part_keys: np.ndarray, lattice_ncol: np.ndarray,
+                       part_keys: np.ndarray, lattice_ncol: np.ndarray, *,
                        capacity: int = ENTRY_CAPACITY, command: Command = Command(),
                        pose_values: bool = False, mu_low: float | None = None
                        ) -> tuple[np.ndarray, ManipulationChunk]:

@@ -25,7 +25,7 @@ from .threads import over_ranges
 
 def compute_map(design: Design, part: Part, command: Command = Command(), grid: Grid = Grid(),
                 limits: Limits = Limits(), accuracy: Accuracy = Accuracy(),
-                effects: Effects = Effects(), forces: bool = False,
+                effects: Effects = Effects(), *, forces: bool = False,
                 outputs: Outputs | None = None, mu_left: float | None = None,
                 mu_right: float | None = None) -> EnergyMap:
     """Compute one friction-based energy map (MODEL 2-8); with `forces` (or `outputs.forces`),
