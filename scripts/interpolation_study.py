@@ -25,7 +25,10 @@ five). For each held-out design x:
   same end (caged, tip prehension, ejection, stalled; or the same class outside P_j), and the
   fraction with the same caged-or-not end;
 - the discretisation error of the true map: |caging area at h - at h/2| (the sweep's path,
-  `MapScores`), the error estimate the refinement and `sweep optimize` use.
+  `MapScores`), the error estimate the refinement and `sweep optimize` use;
+- per part, whether the predictions rank the held-out designs as the truth does (Spearman's
+  rank correlation, the true top 5 among the predicted top 5, the predicted rank of the true
+  best): what proposing candidates needs.
 
 Writes one row per held-out design (CSV, `--out`, atomically) and prints the summary table.
 """
@@ -142,21 +145,40 @@ def summary(rows: list) -> dict:
                 discretisation_median=float(np.median(disc)),
                 exceeds=float(np.mean(err > disc)),
                 relative_error_median=float(np.median(
-                    [e / t for e, t in zip(err, a("area_true_grid8")) if t > 0] or [np.nan])))
+                    [e / t for e, t in zip(err, a("area_true_grid8")) if t > 0] or [np.nan])),
+                **ranking(a("area_true"), a("area_pred")))
 
 
-def table_line(label: str, s: dict) -> str:
+def ranking(true: np.ndarray, pred: np.ndarray, top: int = 5) -> dict:
+    """Would the prediction propose the right candidates? Spearman's rank correlation of
+    predicted and true caging areas, how many of the true `top` the predicted `top` hold, and
+    the predicted rank of the true best (1: the prediction ranks it first)."""
+    from scipy.stats import spearmanr
+
+    order = np.argsort(-pred, kind="stable")
+    rho = spearmanr(true, pred).statistic if np.ptp(true) > 0 and np.ptp(pred) > 0 else np.nan
+    return dict(rank_correlation=float(rho),
+                top_overlap=len(set(order[:top]) & set(np.argsort(-true, kind="stable")[:top])),
+                best_rank=int(np.flatnonzero(order == int(np.argmax(true)))[0]) + 1)
+
+
+def table_line(label: str, s: dict, pooled: bool = False) -> str:
+    """A row of the summary table; a row pooling parts has no ranking (areas of different
+    parts are not one ranking)."""
+    rank = ("- | - | -" if pooled else f"{s['rank_correlation']:.2f} | {s['top_overlap']} of 5 "
+            f"| {s['best_rank']}")
     return (f"| {label} | {s['n']} ({s['caging']} caging) | {s['agreement_median']:.3f} / "
             f"{s['agreement_min']:.3f} | {s['caged_agreement_median']:.3f} / "
             f"{s['caged_agreement_min']:.3f} | {s['error_median']:.3g} / {s['error_p90']:.3g} "
             f"| {s['relative_error_median']:.1%} | {s['discretisation_median']:.3g} | "
-            f"{s['exceeds']:.0%} |")
+            f"{s['exceeds']:.0%} | {rank} |")
 
 
 HEADER = ("| parts | n held out (caging) | class agreement median / min | caged-end agreement "
           "median / min | caging-area error median / p90 | relative error median (caging) | "
-          "discretisation error median | error > discretisation |\n"
-          "|---|---|---|---|---|---|---|---|")
+          "discretisation error median | error > discretisation | rank correlation | "
+          "true top 5 in predicted top 5 | predicted rank of the true best |\n"
+          "|---|---|---|---|---|---|---|---|---|---|---|")
 
 
 def csv_text(rows: list) -> str:
@@ -226,10 +248,10 @@ def main(argv=None) -> None:
     for r, mu in parts:
         print(table_line(f"r {r:g}, mu {mu:g}",
                          summary([x for x in rows if x["r"] == r and x["mu"] == mu])))
-    print(table_line("all", summary(rows)))
+    print(table_line("all", summary(rows), pooled=True))
     caging = [x for x in rows if x["area_true"] > 0 or x["area_pred"] > 0]
     if caging:
-        print(table_line("all, caging designs only", summary(caging)))
+        print(table_line("all, caging designs only", summary(caging), pooled=True))
     s = summary(rows)
     print(f"\nagainst the truth's pipeline answer (sliding): error median "
           f"{s['error_vs_pipeline_median']:.3g}")
