@@ -304,3 +304,75 @@ def test_the_report_of_an_optimised_store_has_the_section(small_store, tmp_path)
         assert float(rows[0]["x_area"]) == pytest.approx(f["x_star_area"][0, k], rel=1e-5)
         assert float(rows[0]["g_area"]) == pytest.approx(f["grid_best_area"][0, k], rel=1e-5)
         assert float(rows[0]["x_l1"]) == pytest.approx(f["x_star"][0, 0], rel=1e-5)
+
+
+def test_the_two_scene_report_has_the_section_of_the_optimised_scene(small_store, tmp_path):
+    """`sweep report A B` (the two-scene report of `make run`) with B optimised: B's files
+    (`optimization_2.*`) and section, none for A; the table's numbers are B's results file's."""
+    import csv
+
+    import yaml
+
+    raw = yaml.safe_load(SMALL.read_text())
+    raw["name"] = "small-collision"
+    raw["effects"]["finger_collision"] = True
+    config = tmp_path / "small-collision.yaml"
+    config.write_text(yaml.safe_dump(raw))
+    one, two = tmp_path / "small.h5", tmp_path / "small-collision.h5"
+    shutil.copy(small_store, one)
+    assert invoke("run", config, "--out", two, "--threads", 1, "--no-progress").exit_code == 0
+    assert invoke("optimize", two, *OPTS).exit_code == 0
+    out = tmp_path / "report"
+    res = invoke("report", one, two, "--out", out)
+    assert res.exit_code == 0, res.output
+    assert not (out / "optimization_1.csv").exists() and not (out / "optimization_1.png").exists()
+    assert (out / "optimization_2.png").stat().st_size > 0
+    md = (out / "report.md").read_text()
+    assert "## 6. Beyond the grid, `sweep optimize`, scene 2" in md
+    assert "small-collision.optimize.h5" in md
+    rows = list(csv.DictReader(open(out / "optimization_2.csv")))
+    with h5py.File(tmp_path / "small-collision.optimize.h5", "r") as f:
+        k = int(f["finest_level"][0])
+        assert float(rows[0]["x_area"]) == pytest.approx(f["x_star_area"][0, k], rel=1e-5)
+        assert float(rows[0]["g_l1"]) == pytest.approx(f["grid_best"][0, 0], rel=1e-5)
+    # optimising scene 1 afterwards makes the report stale: redone with scene 1's section too
+    assert invoke("optimize", one, *OPTS).exit_code == 0
+    res = invoke("report", one, two, "--out", out)
+    assert res.exit_code == 0 and "nothing to do" not in res.output, res.output
+    assert (out / "optimization_1.csv").exists()
+    assert "`sweep optimize`, scene 1" in (out / "report.md").read_text()
+
+
+def test_the_figure_draws_g_and_x_star_grippers_on_x_stars_map(small_store, tmp_path):
+    """Each map panel of optimization.png: x*'s gripper (solid) and G's (dashed, another
+    colour), each palm and two fingers, named in the panel's legend; G's fingers are G's
+    links (their polyline lengths l1 and l2), not x*'s."""
+    from sweep.report.optimized import (G_GRIPPER, X_GRIPPER, optimization_figure,
+                                        optimization_rows)
+    from sweep.report.stores import open_store
+
+    store = tmp_path / "small.h5"
+    shutil.copy(small_store, store)
+    assert invoke("optimize", store, *OPTS).exit_code == 0
+    rows = optimization_rows(tmp_path / "small.optimize.h5")
+    fig = optimization_figure(open_store(store), rows, lambda m: None)
+    panels = [ax for ax in fig.axes if ax.get_legend() is not None
+              and any(line.get_gid() for line in ax.lines)]
+    assert len(panels) == min(len(rows), 4)
+    for ax in panels:
+        legend = [t.get_text() for t in ax.get_legend().get_texts()]
+        assert legend == [X_GRIPPER, G_GRIPPER]
+        gids = [line.get_gid() for line in ax.lines if line.get_gid()]
+        for who in (X_GRIPPER, G_GRIPPER):
+            assert gids.count(f"{who}:palm") == 1 and gids.count(f"{who}:finger") == 2, gids
+        g_lines = [line for line in ax.lines if line.get_gid() == f"{G_GRIPPER}:finger"]
+        x_lines = [line for line in ax.lines if line.get_gid() == f"{X_GRIPPER}:finger"]
+        assert g_lines[0].get_color() != x_lines[0].get_color()
+        assert g_lines[0].get_linestyle() == "--" and x_lines[0].get_linestyle() == "-"
+        row = rows[0]
+        for line in g_lines:
+            pts = np.column_stack(line.get_data())
+            links = np.hypot(*np.diff(pts, axis=0).T)
+            assert links == pytest.approx([row["g_l1"], row["g_l2"]], abs=1e-9)
+        palm = next(line for line in ax.lines if line.get_gid() == f"{G_GRIPPER}:palm")
+        assert abs(np.diff(palm.get_xdata())[0]) == pytest.approx(row["g_w"], abs=1e-9)

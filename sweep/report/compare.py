@@ -14,6 +14,9 @@ designs, parts and grid (`check_comparable` refuses others) and writes into `out
 - with Scenario C in both stores: `friction.png`, `friction.csv`, `friction_candidates.csv`,
   `caging_modulation.csv`: per part A, C and B under each scene, and each scene's caging under
   modulation;
+- when a store has been optimised (`sweep optimize`: its results file beside it):
+  `optimization_S.png`, `optimization_S.csv` for that scene S (1 or 2): per part G versus x*,
+  the verdict and the box-limited constraints, the two grippers on x*'s map;
 - `report.md`: every table, the rules, both scenes' settings, a templated reading and which
   scene a designer should trust for hardware;
 - `report.json`: what the report was made from (a rerun on the same stores is a no-op).
@@ -30,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from . import caging, friction, manipulation, tip, usage
+from . import caging, friction, manipulation, optimized, tip, usage
 from .caging import best_caging_rows
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, Comparison, StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
@@ -45,6 +48,7 @@ FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs
          "representative_designs.csv", "manipulation.png", "manipulation.csv",
          "scenario_a_candidates.csv", "parameter_usage.png", "parameter_usage.csv",
          "friction.png", "friction.csv", "friction_candidates.csv", "caging_modulation.csv",
+         "optimization_1.png", "optimization_1.csv", "optimization_2.png", "optimization_2.csv",
          "report.md", MARKER)
 
 
@@ -213,6 +217,10 @@ def make_tables(st1: StoreData, st2: StoreData, top_k: int | None,
             rep.friction_scenes, rep.modulation_scenes = tuple(scenes), tuple(cagings)
             rep.friction = friction.pair_rows(*scenes)
             rep.modulation = friction.pair_rows(*cagings)
+    for tag, st in (("1", st1), ("2", st2)):
+        path = optimized.optimized_file(st)
+        if path is not None:
+            rep.optimized.append((tag, path, optimized.optimization_rows(path)))
     return rep
 
 
@@ -225,6 +233,7 @@ def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> di
     return dict(kind="comparison", store=[one["store"], two["store"]],
                 config_hash=[one["config_hash"], two["config_hash"]],
                 store_created_utc=[one["store_created_utc"], two["store_created_utc"]],
+                store_optimized_utc=[one["store_optimized_utc"], two["store_optimized_utc"]],
                 top_k=top_k, manipulation=st1.manipulation, report_version=__version__)
 
 
@@ -254,6 +263,11 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
             rep.modulation, ["r", "mu"] + [f"{k}_{s}" for s in ("1", "2")
                                            for k in friction.MODULATION_COLUMNS[2:]]))
         write("friction.png", png(friction.pair_figure(st1, st2, rep)))
+    for tag, _, rows in rep.optimized:
+        st = st1 if tag == "1" else st2
+        write(f"optimization_{tag}.csv", csv_bytes(rows, optimized.OPT_COLUMNS))
+        write(f"optimization_{tag}.png", png(optimized.optimization_figure(
+            st, rows, lambda m, tag=tag: log(f"scene {tag}: {m}"))))
     write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
     write("best_designs.png", png(caging.pair_figure(st1, st2, rep.best, log)))
     write("report.md", markdown(st1, st2, rep).encode())
@@ -461,6 +475,11 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
     else:
         L += ["Skipped: Scenario C is not in both stores (config option `outputs: "
               "{manipulation: true, scenario_c: {mu_low: 0.0}}`; `make friction`)."]
+    for tag, path, rows in rep.optimized:
+        st = st1 if tag == "1" else st2
+        L += ["", f"## 6. Beyond the grid, `sweep optimize`, scene {tag} ({scene_name(st)}: "
+              f"`optimization_{tag}.png`, `optimization_{tag}.csv`)", ""]
+        L += optimized.section(rows, path)
     L += ["", "## Reading", ""] + reading(st1, st2, rep)
     L.append("")
     return "\n".join(L)

@@ -368,4 +368,6 @@ class Comparison:
     friction: list[dict] = field(default_factory=list)       # both side by side
     modulation_scenes: tuple = ()    # each scene's caging-under-modulation rows
     modulation: list[dict] = field(default_factory=list)     # both side by side
+    #: per scene whose store has been optimised: (scene tag, results file, its rows)
+    optimized: list[tuple] = field(default_factory=list)
     files: list[str] = field(default_factory=list)

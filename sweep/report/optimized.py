@@ -2,7 +2,8 @@
 optimised (its results file `STORE` name + `.optimize.h5` beside it): per part G versus x* with
 their values and error bars at the finest h both reached, the verdict, the box-limited
 constraints; the figure draws the error bars of every part and x*'s map for the parts where x*
-gains most.
+gains most, with both grippers on it. The two-scene report (`compare.py`) has the section for
+each scene whose store has been optimised.
 """
 from __future__ import annotations
 
@@ -24,6 +25,8 @@ OPT_COLUMNS = ("r", "mu", "x_l1", "x_l2", "x_r1", "x_r2", "x_w", "x_area", "x_er
                "verdict", "box_limited", "spread", "x_tol_min", "g_tol_min", "maps", "seconds")
 #: Maps drawn in the figure: the parts where x* gains most over G.
 MAPS_DRAWN = 4
+#: The two grippers drawn on x*'s map (legend labels; the lines' gids start with them).
+X_GRIPPER, G_GRIPPER = "x* (optimum found)", "G (grid's best)"
 
 
 def optimized_file(st: StoreData) -> Path | None:
@@ -57,16 +60,17 @@ def optimization_rows(path: Path) -> list[dict]:
 
 
 def optimization_figure(st: StoreData, rows: list[dict], log) -> Figure:
-    """Top: per part x* and G with error bars at the finest h; below: x*'s map (its gripper
-    drawn at a representative caged pose) for the parts where x* gains most."""
+    """Top: per part x* and G with error bars at the finest h; below: x*'s map for the parts
+    where x* gains most, with x*'s gripper at a representative caged pose and G's gripper
+    (dashed) holding the part at the same place."""
     drawn = sorted(range(len(rows)), key=lambda i: -rows[i]["d"])[:MAPS_DRAWN]
     fig = Figure(figsize=(4.2 * max(len(drawn), 2), 8.0), dpi=100, layout="constrained")
     FigureCanvasAgg(fig)
     grid = fig.add_gridspec(2, max(len(drawn), 1))
     ax = fig.add_subplot(grid[0, :])
     pos = np.arange(len(rows))
-    for off, prefix, label, colour in ((-0.15, "g", "G (grid's best)", SCENE_COLOURS[0]),
-                                       (0.15, "x", "x* (optimum found)", SCENE_COLOURS[1])):
+    for off, prefix, label, colour in ((-0.15, "g", G_GRIPPER, SCENE_COLOURS[0]),
+                                       (0.15, "x", X_GRIPPER, SCENE_COLOURS[1])):
         ax.errorbar(pos + off, [r[f"{prefix}_area"] for r in rows],
                     yerr=[r[f"{prefix}_error"] for r in rows], fmt="o", capsize=3,
                     color=colour, label=label)
@@ -81,12 +85,14 @@ def optimization_figure(st: StoreData, rows: list[dict], log) -> Figure:
         row = rows[i]
         log(f"optimised maps: {j + 1}/{len(drawn)} (r = {row['r']:g}, mu = {row['mu']:g})")
         m = scene_map(st.scene, {d: row[f"x_{d}"] for d in DESIGN_DIMS}, row["r"], row["mu"])
+        g = scene_map(st.scene, {d: row[f"g_{d}"] for d in DESIGN_DIMS}, row["r"], row["mu"])
         title = (f"x* for r={row['r']:g}, μ={row['mu']:g}: "
                  + " ".join(f"{d}={row[f'x_{d}']:.3g}" for d in DESIGN_DIMS)
                  + "\nG: " + " ".join(f"{d}={row[f'g_{d}']:.3g}" for d in DESIGN_DIMS)
                  + f"\nd = {fmt(row['d'])} ± {fmt(row['u'])} at h={fmt(row['h'])}")
         draw_map_panel(fig.add_subplot(grid[1, j]), m, title=title,
-                       colorbar_label="energy V (unitless)")
+                       colorbar_label="energy V (unitless)", label=X_GRIPPER,
+                       others=((g, G_GRIPPER),))
     fig.suptitle(f"Beyond the grid: sweep optimize ({NOTE_UNITLESS})", fontsize=11)
     return fig
 

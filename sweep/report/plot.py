@@ -222,17 +222,19 @@ def gripper_pose(m, p: int) -> dict:
     return dict(x=x, y=y, fingers=fingers, box=(min(xs), max(xs), min(ys), max(ys)))
 
 
-def _draw_gripper(ax, m, pose: dict) -> None:
-    """Palm, both fingers (links and joints) and the part, to scale."""
+def _draw_gripper(ax, m, pose: dict, gid: str | None = None) -> None:
+    """Palm, both fingers (links and joints) and the part, to scale; `gid` names the palm's and
+    the fingers' lines (a figure that draws several grippers tells them apart by it)."""
     d = m.design
     halo = [patheffects.withStroke(linewidth=6.5, foreground="white")]
     z = 6
     ax.plot([-0.5 * d.w, 0.5 * d.w], [0.0, 0.0], color="#222222", lw=5, solid_capstyle="butt",
-            zorder=z, path_effects=halo)
+            zorder=z, path_effects=halo, gid=None if gid is None else f"{gid}:palm")
     for side, pts in pose["fingers"]:
         colour = FINGER_COLOURS[side]
         ax.plot(pts[:, 0], pts[:, 1], color=colour, lw=3.2, solid_joinstyle="round",
-                solid_capstyle="round", zorder=z + 1, path_effects=halo)
+                solid_capstyle="round", zorder=z + 1, path_effects=halo,
+                gid=None if gid is None else f"{gid}:finger")
         ax.plot(pts[:2, 0], pts[:2, 1], ls="none", marker="o", ms=5.5, mfc="white", mec=colour,
                 mew=1.5, zorder=z + 2)
         ax.plot(pts[2:, 0], pts[2:, 1], ls="none", marker="o", ms=3.5, color=colour,
@@ -241,6 +243,38 @@ def _draw_gripper(ax, m, pose: dict) -> None:
     ax.add_patch(Circle((x, y), m.part.r, facecolor=(1, 1, 1, 0.25), edgecolor="black",
                         lw=1.8, zorder=z))
     ax.plot([x], [y], marker="+", ms=9, mew=2.0, color="black", zorder=z + 3)
+
+
+#: A second gripper drawn over a map (`draw_map_panel`'s `others`): its colour and line style.
+OTHER_GRIPPER_COLOUR = "#ff9f1c"
+
+
+def pose_at(m, x: float, y: float) -> dict | None:
+    """The gripper pose of map `m` with the part at (x, y), if that is one of m's grid points
+    (maps of one part and spacing share the lattice x = i h, y = r + j h), else None."""
+    h = _grid_step(m)
+    i = int(round((x - float(m.x[0])) / h))
+    j = int(round((y - float(m.y[0])) / h))
+    if not (0 <= i < m.x.size and 0 <= j < m.y.size):
+        return None
+    if abs(float(m.x[i]) - x) > 1e-6 * h or abs(float(m.y[j]) - y) > 1e-6 * h:
+        return None
+    return gripper_pose(m, j * m.x.size + i)
+
+
+def _draw_other_gripper(ax, m, pose: dict, gid: str, part: bool) -> None:
+    """Another design's palm and fingers over a map, thinner and dashed in one colour; with
+    `part`, also the part where the pose puts it (dashed: not the map's own pose)."""
+    d = m.design
+    z = 8
+    ax.plot([-0.5 * d.w, 0.5 * d.w], [0.0, 0.0], color=OTHER_GRIPPER_COLOUR, lw=2.2, ls="--",
+            zorder=z, gid=f"{gid}:palm")
+    for _, pts in pose["fingers"]:
+        ax.plot(pts[:, 0], pts[:, 1], color=OTHER_GRIPPER_COLOUR, lw=2.0, ls="--", marker="o",
+                ms=3.0, zorder=z + 1, gid=f"{gid}:finger")
+    if part:
+        ax.add_patch(Circle((pose["x"], pose["y"]), m.part.r, facecolor="none",
+                            edgecolor=OTHER_GRIPPER_COLOUR, lw=1.2, ls="--", zorder=z))
 
 
 def _title(m) -> tuple[str, str]:
@@ -317,7 +351,7 @@ def _map_view(m) -> dict:
                 end_count=end_count, moving=moving, pose=pose, why=why, limits=limits, map=m)
 
 
-def _draw_layers(ax, m, v: dict, trajectories: bool = True) -> tuple:
+def _draw_layers(ax, m, v: dict, trajectories: bool = True, gid: str | None = None) -> tuple:
     """Draw map `m` (view `v` from `_map_view`) into `ax`: energy colour, greyed points outside
     P_j, equilibrium hatching, caged outline, the gripper to scale; with `trajectories`, also
     the downhill paths and their end points. Returns the energy mesh (for a colour bar) and the
@@ -390,7 +424,7 @@ def _draw_layers(ax, m, v: dict, trajectories: bool = True) -> tuple:
 
     # The gripper to scale in one representative pose.
     if pose is not None:
-        _draw_gripper(ax, m, pose)
+        _draw_gripper(ax, m, pose, gid)
         handles.append(Line2D([], [], color=FINGER_COLOURS[1], lw=3.2,
                               label=f"gripper to scale, part at ({pose['x']:.2f}, "
                                     f"{pose['y']:.2f}): {why}"))
@@ -496,13 +530,37 @@ def draw_map(m) -> Figure:
 
 
 def draw_map_panel(ax, m, title: str | None = None, colorbar_label: str | None =
-                   "energy V (unitless)", fontsize: float = 7.0):
+                   "energy V (unitless)", fontsize: float = 7.0, label: str | None = None,
+                   others: tuple = ()):
     """Draw map `m` into the given Axes as one panel of a larger figure: energy colour with its
     own colour bar, equilibrium hatching, caged outline and the gripper to scale at the
-    representative pose (no trajectories, no legend). Returns the energy mesh."""
+    representative pose (no trajectories). `others`: (map, label) pairs of other designs for
+    the same part whose grippers are drawn over it (dashed, `OTHER_GRIPPER_COLOUR`) with the
+    part where m's gripper holds it (their own representative pose where that is off their
+    grid or infeasible for them); with them (or `label`), a legend names each gripper by its
+    label, and the lines carry the label as their gid (`LABEL:palm`, `LABEL:finger`). Returns
+    the energy mesh."""
     v = _map_view(m)
-    mesh, _ = _draw_layers(ax, m, v, trajectories=False)
-    xlo, xhi, ylo, yhi = v["limits"]
+    mesh, _ = _draw_layers(ax, m, v, trajectories=False, gid=label)
+    handles = []
+    if label is not None and v["pose"] is not None:
+        handles.append(Line2D([], [], color=FINGER_COLOURS[1], lw=3.2, label=label))
+    boxes = [v["limits"]]      # the panel shows every gripper drawn whole
+    for other, other_label in others:
+        pose = None if v["pose"] is None else pose_at(other, v["pose"]["x"], v["pose"]["y"])
+        own = pose is None or len(pose["fingers"]) < 2    # off its grid, or infeasible there
+        if own:
+            pose = _map_view(other)["pose"]
+        if pose is None:
+            continue
+        _draw_other_gripper(ax, other, pose, other_label, part=own)
+        boxes.append(pose["box"])
+        handles.append(Line2D([], [], color=OTHER_GRIPPER_COLOUR, lw=2.0, ls="--",
+                              label=other_label))
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=fontsize, framealpha=0.85)
+    b = np.array(boxes, float)
+    xlo, xhi, ylo, yhi = b[:, 0].min(), b[:, 1].max(), b[:, 2].min(), b[:, 3].max()
     ax.set_xlim(xlo, xhi)
     ax.set_ylim(ylo, yhi)
     ax.set_aspect("equal")
