@@ -51,9 +51,13 @@ map: $(STAMP)
 
 # The test suite at its bounded size: every kind of check (oracle comparisons with the slow
 # references of tests/naive*.py, Hypothesis properties, fuzz, faults and kill-and-resume, golden
-# files, the recipe), a few minutes on 2 cores.
+# files, the recipe), a few minutes on 2 cores. TEST_WORKERS processes (pytest-xdist) share the
+# tests, a test file each at a time (its module fixtures computed once); the kernels are
+# compiled once, before the workers start (tests/conftest.py).
+TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 2); [ $$n -gt 8 ] && n=8; echo $$n)
+PYTEST_PARALLEL = -n $(TEST_WORKERS) --dist loadfile
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PYTEST_PARALLEL)
 
 # The same suite with every long profile on (tests/profiles.py): Hypothesis properties with their
 # large example counts, the fuzz campaign's 23,000 random cases, the end-to-end oracle
@@ -61,7 +65,7 @@ test: $(STAMP)
 # hour on 2 cores (README, "Tests").
 test-long: $(STAMP)
 	SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_LONG_ORACLES=1 SWEEP_LONG_RECIPE=1 \
-		SWEEP_LONG_COMPILE=1 $(PY) -m pytest -q
+		SWEEP_LONG_COMPILE=1 $(PY) -m pytest -q $(PYTEST_PARALLEL)
 
 # pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), and the layers
 # that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.

@@ -24,10 +24,43 @@ DATA = Path(__file__).parent / "data"
 COMPUTE_FREE = {"test_layers.py", "test_model_references.py"}
 
 
+def _xdist_worker(config) -> bool:
+    return hasattr(config, "workerinput")
+
+
+def pytest_sessionstart(session):
+    """With several workers (`make test`: pytest-xdist), the kernels are compiled here, in the
+    controller, before the workers start, so that no two workers compile them at once; each
+    worker then loads them from the cache (the fixture below finds them compiled)."""
+    config = session.config
+    if getattr(config.option, "numprocesses", None) and not _xdist_worker(config):
+        from sweep.compute import warm
+
+        warm.ensure_compiled()
+
+
 def pytest_terminal_summary(terminalreporter, exitstatus, config):
-    """Lines tests leave for the summary (the fuzz campaign's count of cases)."""
+    """Lines tests leave for the summary (the fuzz campaign's count of cases), from this
+    process and, under pytest-xdist, from every worker (pytest_testnodedown)."""
     for line in getattr(config, "sweep_summary_lines", []):
         terminalreporter.write_line(line)
+
+
+def pytest_sessionfinish(session):
+    """A worker hands its summary lines to the controller."""
+    config = session.config
+    if _xdist_worker(config):
+        config.workeroutput["sweep_summary_lines"] = getattr(config, "sweep_summary_lines", [])
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    lines = getattr(node, "workeroutput", {}).get("sweep_summary_lines", [])
+    if lines:
+        config = node.config
+        if not hasattr(config, "sweep_summary_lines"):
+            config.sweep_summary_lines = []
+        config.sweep_summary_lines.extend(lines)
 
 
 @pytest.fixture(scope="session", autouse=True)
