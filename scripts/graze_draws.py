@@ -32,6 +32,13 @@ from sweep.model import FREE, RANGE_TOL, VERTEX  # noqa: E402
 UNMUTATED = finger.joint_strike_angle
 
 
+def acos_argument(dx, dy, rho, r):
+    """MODEL 4's acos argument for a vertex at radius rho (finger_geometry.entry_cosine, an
+    inner kernel that only kernels may call: the same formula)."""
+    dist2 = dx * dx + dy * dy
+    return (rho * rho + dist2 - r * r) / (2.0 * rho * math.sqrt(dist2))
+
+
 def graze_ignored(dx, dy, l1, r):
     return geometry.vertex_entry(dx, dy, l1, 0.0, r)
 
@@ -40,7 +47,7 @@ def above_one_is_a_miss(dx, dy, l1, r):
     t_b = geometry.vertex_entry(dx, dy, l1, 0.0, r)
     if t_b != geometry.NO_ANGLE:
         return t_b
-    c = geometry.entry_cosine(dx, dy, l1, r)
+    c = acos_argument(dx, dy, l1, r)
     if c < 1.0 - RANGE_TOL or c > 1.0:
         return geometry.NO_ANGLE
     return math.atan2(dy, dx) - math.acos(min(c, 1.0))
@@ -98,7 +105,7 @@ def main():
         dx, dy = dist * math.cos(alpha), dist * math.sin(alpha)
         if dy < r or dx * dx + dy * dy < r * r:
             continue
-        c = geometry.entry_cosine(dx, dy, l1, r)
+        c = acos_argument(dx, dy, l1, r)
         if not 1.0 - RANGE_TOL <= c <= 1.0 + 1e-14:
             continue
         kept += 1
