@@ -210,10 +210,15 @@ def b_graze_strike(dx, dy, l1, r, th2_min):
     if not (1.0 - RANGE_TOL <= c <= 1.0 + err_c):
         return None
     t = math.atan2(dy, dx) - math.acos(min(c, 1.0))
-    bx, by = l1 * math.cos(t), l1 * math.sin(t)
+    # the links' directions are read where B is nearest the centre (t1 = atan2(dy, dx)), not at
+    # the entry angle t: t lies up to acos(1 - RANGE_TOL) = 1.4e-6 before it, which turns the
+    # distal link's direction by (1 + l1 / r) that much, and with theta2_min within that of
+    # -90 deg it pointed out of the disc at t while the link cut in just after (D30)
+    a = math.atan2(dy, dx)
+    bx, by = l1 * math.cos(a), l1 * math.sin(a)
     to_centre = (dx - bx, dy - by)
-    distal = (math.cos(t + th2_min), math.sin(t + th2_min))
-    proximal_back = (-math.cos(t), -math.sin(t))
+    distal = (math.cos(a + th2_min), math.sin(a + th2_min))
+    proximal_back = (-math.cos(a), -math.sin(a))
     enters = any(to_centre[0] * u[0] + to_centre[1] * u[1] > 0.0 for u in (distal, proximal_back))
     return t if enters else None
 

@@ -43,6 +43,7 @@ from hypothesis import strategies as st
 from sweep.compute.layout import finger_offsets, map_grid
 from sweep.compute.maps import compute_map
 from sweep.model import (
+    FREE,
     INFEASIBLE,
     PROXIMAL_ONLY,
     RANGE_TOL,
@@ -50,6 +51,7 @@ from sweep.model import (
     RECONFIG_STEP_RANGE,
     ROOT_TOL_RANGE,
     TWO_PHALANX,
+    VERTEX,
     DISTAL_ONLY,
     Accuracy,
     Command,
@@ -808,6 +810,90 @@ def test_a_distal_contact_within_round_off_of_b_does_not_stick_by_round_off():
     assert states[0].mode == states[1].mode
     assert states[0].t1 == pytest.approx(states[1].t1, abs=1e-9)
     assert states[0].t2 == pytest.approx(states[1].t2, abs=1e-9)
+
+
+def exact_excess(dx, dy, l1, r):
+    """|d|^2 - (l1 + r)^2 in exact arithmetic of the given floats: < 0 where B's circle about J
+    reaches into the disc (B enters it), > 0 where it misses."""
+    from fractions import Fraction as Q
+    return Q(dx) ** 2 + Q(dy) ** 2 - (Q(l1) + Q(r)) ** 2
+
+
+def contact_arc_length(state, l1):
+    """Where along J-B-T a first contact of the rigid sweep touches: k1 on the proximal link (a
+    strike of B reports k1 = l1), else l1 + k2 on the distal one (a strike of T: l1 + l2)."""
+    return state.k1 if state.k1 > 0.0 else l1 + state.k2
+
+
+def check_stops_at_the_first_contact(dx, dy, l1, l2, r, theta2_min):
+    """The rigid sweep's first contact (closing_contact) is brute force's: same angle and place
+    along the finger (1e-6: a vertex grazing the disc crosses it only to sqrt(eps)), links out
+    of the part there; and the reference (tests/naive.py) agrees."""
+    from kernel_calls import closing
+    from naive import EV_NONE, rigid_sweep
+
+    tb, ub = first_contact_by_brute_force(dx, dy, l1, l2, r, theta2_min)
+    first = closing(dx, dy, l1, l2, r, theta2_min, math.radians(90.0))
+    assert first.mode != FREE, (tb, ub)
+    assert first.t1 == pytest.approx(tb, abs=1e-6)
+    assert contact_arc_length(first, l1) == pytest.approx(ub, abs=1e-6 * l1)
+    assert links_clear_of_the_part(dx, dy, l1, l2, r, first) >= -LINK_TOL
+    kind, t1_ref, _ = rigid_sweep(dx, dy, l1, l2, r, theta2_min)
+    assert kind != EV_NONE and t1_ref == pytest.approx(tb, abs=1e-6)
+    return first, tb, ub
+
+
+@pytest.mark.parametrize("l1, r, depth", [(1.0, 0.5, 1e-13), (1.0, 0.5, 2e-12),
+                                          (1.0, 0.01, 1e-13), (1.0, 0.01, 1e-11),
+                                          (1.0, 0.05, 3e-12)])
+def test_b_entering_the_disc_by_less_than_the_graze_tolerance_stops_the_rigid_sweep(l1, r, depth):
+    """MODEL 4 revised, D30 (mutant d30-graze-of-b-ignored). B's circle about J reaches `depth`
+    into the disc (|d| = l1 + r - depth), so little that MODEL 4's acos argument for B lies
+    within RANGE_TOL of 1 (D3 would call it a graze), with the distal link 1e-5 deg short of
+    perpendicular to the proximal one (theta2_min = -89.99999 deg). The distal line then reaches
+    over the centre's side of B's circle (r' = r + l1 cos(1e-5 deg) > |d|): 3.3 has no
+    tangency, and once B has passed the line from J through the centre the distal link cuts
+    into the part. Brute force: the first contact is B, within 1.4e-6 rad of atan2(d); ignoring
+    the graze, the finger swept on until its tip struck (l1 = l2 = 1, r = 0.5: t1 = 1.3729,
+    the distal link 0.29 r inside) or to the proximal stop with the distal link through the
+    whole part (r = 0.01). The reference read the links' directions at B's entry angle, where
+    the distal link still pointed out of the disc, and ignored it too (fixed, D30)."""
+    l2, th2min = 1.0, math.radians(-89.99999)
+    dist = l1 + r - depth
+    dx, dy = 0.6 * dist, 0.8 * dist
+    assert exact_excess(dx, dy, l1, r) < 0  # B enters the disc
+    first, tb, ub = check_stops_at_the_first_contact(dx, dy, l1, l2, r, th2min)
+    assert first.mode == VERTEX and first.k1 == l1 and ub == pytest.approx(l1, abs=1e-6)
+    assert tb == pytest.approx(math.atan2(dy, dx), abs=2e-6)
+    # swept on past B, the distal link cuts into the part (by brute force): B's graze matters
+    from test_closing_bruteforce import polyline_contact
+    ts = np.linspace(tb, min(tb + 0.5, math.pi), 2001)
+    assert polyline_contact(dx, dy, ts, th2min, l1, l2)[0].min() < 0.9 * r
+
+
+def test_b_grazing_the_disc_with_its_acos_argument_rounded_above_one_stops_the_rigid_sweep():
+    """MODEL 4 revised, D30 (mutant d30-graze-round-off-above-one). l1 = 2, l2 = 1, r = 0.01,
+    theta2_min = -89.99999 deg, the part at 2.01 (0.6, 0.8) moved down by 1 to 40 ulps of d_y:
+    in exact arithmetic B's circle about J reaches into the disc (by up to 7e-15), so the
+    distal line, 1e-5 deg short of perpendicular, passes over the centre's side of B's circle
+    and the distal link cuts through the part once B has passed the line from J through the
+    centre. MODEL 4's acos argument for B comes out exactly 1 for most of these and 1 + 2.2e-16
+    for some (its round-off is 4 eps (l1^2 + |d|^2 + r^2) / (2 l1 |d|) = 8.9e-16 here); 3.3's
+    tangency lies behind B beyond its round-off (rejected). Reading "above 1" as a miss, the
+    finger swept on to its proximal stop (FREE) with the distal link through the whole part.
+    Brute force: the first contact is B, at atan2(d) within 1e-8 rad, for every one of them."""
+    l1, l2, r, th2min = 2.0, 1.0, 0.01, math.radians(-89.99999)
+    dist = l1 + r
+    rounded_above = 0
+    for k in range(1, 41):
+        dx, dy = 0.6 * dist, 0.8 * dist - k * math.ulp(0.8 * dist)
+        assert exact_excess(dx, dy, l1, r) < 0, k  # B enters the disc
+        d2 = dx * dx + dy * dy
+        rounded_above += (l1 * l1 + d2 - r * r) / (2.0 * l1 * math.sqrt(d2)) > 1.0
+        first, tb, ub = check_stops_at_the_first_contact(dx, dy, l1, l2, r, th2min)
+        assert ub == pytest.approx(l1, abs=1e-6), k
+        assert tb == pytest.approx(math.atan2(dy, dx), abs=1e-8), k
+    assert rounded_above >= 3
 
 
 def test_physical_invariants_hold_over_the_accepted_space():
