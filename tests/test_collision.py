@@ -638,3 +638,30 @@ def test_grid_points_with_a_tip_path_finger_are_the_one_position_answer(case):
         assert e == pytest.approx(energy[j, i], rel=1e-12, abs=1e-12)
         n += 1
     assert n > 20
+
+
+def test_a_cell_never_reads_the_meetings_of_other_links():
+    """The per-thread memo of meetings holds the settled fingers of one (l1, l2): a cell that
+    follows cells of other links (the same l2, another l1: the fingers settle at the same
+    joint stops, and whether and where they meet depends on l1) computes its maps as it would
+    alone. Wide palms, where closed fingers of one l1 cross and of another do not."""
+    from sweep.compute.batch import summarize_cells
+    from sweep.compute.threads import numba_threads
+    from sweep.model import Command
+
+    h = 0.1
+    widths = np.array([0.0, 1.2, 2.0, 2.8, 3.6])
+    effects = Effects(finger_collision=True)
+    cases = [[(1.2, 1.2, 0.04, 0.1, 0.8, 0.1), (1.2, 1.2, 0.2, 0.02, 0.8, 0.1),
+              (2.0, 1.2, 0.12, 0.1, 0.8, 0.1)],
+             [(1.6, 0.8, 0.12, 0.1, 0.4, 1.0), (1.6, 0.8, 0.04, 0.02, 0.4, 1.0),
+              (2.0, 0.8, 0.2, 0.02, 0.4, 1.0)]]
+    for cells in cases:
+        cells = np.array(cells)
+        with numba_threads(1):  # one range: the cells in order on one thread, one memo
+            together = summarize_cells(cells, widths, Command(), h, Limits(), Accuracy(),
+                                       effects)
+            alone = [summarize_cells(cells[c:c + 1], widths, Command(), h, Limits(),
+                                     Accuracy(), effects)[0] for c in range(len(cells))]
+        for c in range(len(cells)):
+            assert np.array_equal(together[c], alone[c], equal_nan=True), cells[c]
