@@ -283,24 +283,24 @@ def collect_pair_forces(xs, ys, finger, hand, effects, left, left_statics, right
             s_geo = cage_score(CONTAINED, mouth_opening(left_line, right_line, crossed), r)
             if s_geo <= 0.0:
                 continue
-            a1l, a2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
-            a1r, a2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
+            t1l, t2l = t1_l[0, j, src_l], t2_l[0, j, src_l]
+            t1r, t2r = t1_r[0, j, src_r], t2_r[0, j, src_r]
             if crossed and collision.on:  # (fingers that do not cross are left as settled)
                 changed, new_l, new_r = collide(
                     finger, w, collision,
-                    FingerState(ml, a1l, a2l, k1_l[0, j, src_l], k2_l[0, j, src_l],
+                    FingerState(ml, t1l, t2l, k1_l[0, j, src_l], k2_l[0, j, src_l],
                                 tip_l[0, j, src_l]),
-                    FingerState(mr, a1r, a2r, k1_r[0, j, src_r], k2_r[0, j, src_r],
+                    FingerState(mr, t1r, t2r, k1_r[0, j, src_r], k2_r[0, j, src_r],
                                 tip_r[0, j, src_r]))
                 if changed:
                     if (rests_on_other_finger(new_l[0], new_l[1], new_l[2], finger)
                             or rests_on_other_finger(new_r[0], new_r[1], new_r[2], finger)):
                         continue
-                    ml, a1l, a2l = new_l[0], new_l[1], new_l[2]
-                    mr, a1r, a2r = new_r[0], new_r[1], new_r[2]
+                    ml, t1l, t2l = new_l[0], new_l[1], new_l[2]
+                    mr, t1r, t2r = new_r[0], new_r[1], new_r[2]
                     if classify_point(y, r, ml, mr) != REACHED:
                         continue
-            if part_in_equilibrium(scratch, x, y, w, r, cones, ml, a1l, a2l, mr, a1r, a2r,
+            if part_in_equilibrium(scratch, x, y, w, r, cones, ml, t1l, t2l, mr, t1r, t2r,
                                    finger.l1, finger.l2, effects.tip_contact):
                 continue
             lx = -statics_l[1, j, src_l]         # the left finger's frame is mirrored in x

@@ -202,15 +202,15 @@ def outcome_row(j, xs, y, finger, hand, springs, tip_contact, fingers, outs, for
             continue
         if forces_on:
             point_forces(j, i, finger_l, finger_r, fingers, forces)
-        a1l = t1[0, j, i]
-        a2l = t2[0, j, i]
-        a1r = t1[1, j, i]
-        a2r = t2[1, j, i]
-        energy[j, i] = point_energy(a1l, a2l, a1r, a2r, finger, hand, springs)
+        t1l = t1[0, j, i]
+        t2l = t2[0, j, i]
+        t1r = t1[1, j, i]
+        t2r = t2[1, j, i]
+        energy[j, i] = point_energy(t1l, t2l, t1r, t2r, finger, hand, springs)
         eq = False
         if c == REACHED and equilibrium:
-            eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, a1l, a2l, mr, a1r,
-                                     a2r, finger.l1, finger.l2, tip_contact)
+            eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, t1l, t2l, mr, t1r,
+                                     t2r, finger.l1, finger.l2, tip_contact)
             equilibrium_out[j, i] = eq
         l_open[j, i] = np.nan
         # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
@@ -219,7 +219,7 @@ def outcome_row(j, xs, y, finger, hand, springs, tip_contact, fingers, outs, for
             forces.geometric_cage_score[j, i] = 0.0
         if not wants_geometry:
             continue
-        inside, intersect, opening = cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand)
+        inside, intersect, opening = cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand)
         contained[j, i] = inside
         l_open[j, i] = opening
         crossed[j, i] = intersect
@@ -242,10 +242,10 @@ def cage_score(inside, opening, r):
 
 
 @inner
-def cage_geometry(x, y, a1l, a2l, a1r, a2r, finger, hand):
+def cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand):
     """(contained, fingers cross, L_open) of the part at (x, y) between the fingers (MODEL 8)."""
-    left = finger_polyline(LEFT, a1l, a2l, finger.l1, finger.l2, hand.w)
-    right = finger_polyline(RIGHT, a1r, a2r, finger.l1, finger.l2, hand.w)
+    left = finger_polyline(LEFT, t1l, t2l, finger.l1, finger.l2, hand.w)
+    right = finger_polyline(RIGHT, t1r, t2r, finger.l1, finger.l2, hand.w)
     inside = part_contained(x, y, left, right)
     intersect = fingers_cross(left, right)
     opening = mouth_opening(left, right, intersect)
