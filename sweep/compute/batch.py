@@ -6,6 +6,7 @@ relative to its base, so all widths and both fingers are shifts/mirrors of one f
 """
 from __future__ import annotations
 
+import threading
 
 import numba
 import numpy as np
@@ -104,18 +105,26 @@ def summarize_cells(cells: np.ndarray, widths: np.ndarray, command: Command, h: 
 
 def _summarize_on_shared_fields(maps: CellMaps, solver, blocks, out, want, manip) -> None:
     """kernels.many_maps.summarize_cells over every cell of `maps`, ranges of cells on several
-    threads (threads.over_ranges)."""
+    threads (threads.over_ranges), each thread with its own memo of meetings."""
+    collision = blocks.finger_collision.on
+    n = maps.cells.shape[0]
+    memo_shape = ((maps.widths.size, int(maps.nys.max()), 2 * int(maps.ncols.max()) + 1, 5)
+                  if collision and n else (0, 0, 0, 5))
+    thread_memo = threading.local()
 
     def cells_in_range(first, last):
-        many_maps.summarize_cells(maps, first, last, solver, blocks, out, want, manip)
+        if not hasattr(thread_memo, "memo"):   # a thread's memo serves all its ranges
+            thread_memo.memo = np.empty(memo_shape)
+            thread_memo.key = np.full(2, np.nan)
+        many_maps.summarize_cells(maps, first, last, solver, blocks, out, want, manip,
+                                  thread_memo.memo, thread_memo.key)
 
-    # The kernel keeps caches across the cells of a range when finger_collision (the meetings)
-    # or Scenario C (the low-friction field) is on: then one range per thread, of equal grid
-    # points (what a cell costs, to first order), as a smaller range would start them anew;
-    # else a cell per range, each thread taking the next as it finishes one (the best balance:
-    # docs/performance.md, "The sweep's threads").
-    n = maps.cells.shape[0]
-    if blocks.finger_collision.on or manip.c_mu_low.shape[0] > 0:
+    # Scenario C keeps its low-friction field across the cells of a range: then one range per
+    # thread, of equal grid points (what a cell costs, to first order), as a smaller range would
+    # compute it anew; else a cell per range, each thread taking the next as it finishes one
+    # (the best balance; the meetings' memo is the thread's: docs/performance.md, "The sweep's
+    # threads").
+    if manip.c_mu_low.shape[0] > 0:
         points = maps.nys * ((2 * maps.ncols + 1) * want).sum(axis=1)
         over_ranges(n, cells_in_range, ranges_per_thread=1, costs=points)
     else:

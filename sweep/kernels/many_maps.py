@@ -381,7 +381,7 @@ def pose_radius_sum(count, fx, fy, pose_value, c):
 
 
 @entry(nogil=True)
-def summarize_cells(maps, first, last, solver, effects, out, want, manip):
+def summarize_cells(maps, first, last, solver, effects, out, want, manip, memo, memo_key):
     """The maps of cells first .. last - 1 of `maps` (records.CellMaps: the cells, the widths
     and the layout of each map) at every width, each cell's from one shared finger field, in
     order on the calling thread, without the GIL (`sweep.compute.threads` runs ranges of cells
@@ -394,20 +394,18 @@ def summarize_cells(maps, first, last, solver, effects, out, want, manip):
     without: records.no_manipulation()) the contact forces are computed too and row c of
     `manip` receives the cell's manipulation metric data (MODEL 10), Scenario C's too when
     `manip` has its low friction (a second shared field at that friction, the pairs with a
-    switched finger: collect_pair_forces). With finger_collision, this call's memo of meetings
-    (records.SettledFingers: (n_w, y, x, 5), one map per width, and the l1, l2 of the cell that
-    filled it) is filled while the next cell has the same links and cleared when the links
-    change."""
+    switched finger: collect_pair_forces). With finger_collision, `memo` is the calling thread's
+    memo of meetings (records.SettledFingers: (n_w, y, x, 5), one map per width, as large as
+    the largest map of `maps`: new_meeting_memo) and `memo_key` (2,) the l1, l2 of the cells that
+    filled it: kept across the thread's ranges (a thread takes the next range, mostly of the
+    same links), cleared when the links change; the memo changes no result (an entry is read
+    only where the settled angles it stores are the point's, for the same links)."""
     cells, ws, palm_steps, ncols, nys, h = (maps.cells, maps.widths, maps.palm_steps, maps.ncols,
                                             maps.nys, maps.h)
     manipulation = wants_manipulation(manip)
     scenario_c = manipulation and wants_scenario_c(manip)
     collision = effects.finger_collision.on
     no_forces = no_force_arrays()
-    memo = np.empty((0, 0, 0, 5))
-    if collision and last > first:   # as large as the largest map of these cells
-        memo = np.empty((ws.shape[0], nys[first:last].max(), 2 * ncols[first:last].max() + 1, 5))
-    memo_key = np.full(2, np.nan)
     # Scenario C's low-friction field depends on the cell without its mu (the cells of one
     # (l1, l2, r1, r2, r) are neighbours in the work order): kept while they follow each other
     low_key = np.full(5, np.nan)
@@ -420,8 +418,6 @@ def summarize_cells(maps, first, last, solver, effects, out, want, manip):
         finger = cell_finger(cells, c, maps.theta2_min, maps.theta2_max)
         ny = nys[c]
         cell_ncols = ncols[c]
-        memo_next = (c + 1 < last and cells[c + 1, 0] == cells[c, 0]
-                     and cells[c + 1, 1] == cells[c, 1])
         shared, m_lo, ys = shared_finger_field(finger, solver, effects, palm_steps, cell_ncols,
                                                ny, h)
         ncol_max = np.int64(0)
@@ -459,7 +455,7 @@ def summarize_cells(maps, first, last, solver, effects, out, want, manip):
         memo_read = False
         if collision:
             memo_read = memo_key[0] == finger.l1 and memo_key[1] == finger.l2
-            if memo_next and not memo_read:
+            if not memo_read:
                 memo[:] = np.nan  # meetings depend on the links (and the widths, one memo each)
                 memo_key[0] = finger.l1
                 memo_key[1] = finger.l2
@@ -477,7 +473,7 @@ def summarize_cells(maps, first, last, solver, effects, out, want, manip):
                 left_start = place.ncol - place.palm_steps - m_lo
                 right_start = -place.ncol - place.palm_steps - m_lo
                 settled = SettledFingers(True, shared_statics.links, left_start, -1, right_start,
-                                         1, memo[k], memo_read, memo_next)
+                                         1, memo[k], memo_read, True)
             map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, no_forces,
                              stack, out[c, k], STABLE_POINTS, ALL_OUTPUTS, ALL_OUTPUTS, settled)
             if manipulation:
