@@ -130,8 +130,9 @@ class SettledFingers(NamedTuple):
     the settled angles (t1 left, t2 left, t1 right, t2 right) last met at this width by the
     same thread, with their meeting (cells of one geometry group share most settled fingers),
     read if `memo_read` (it holds this cell's links) and written if `memo_write` (the sweep
-    writes every meeting it computes: the memo is its thread's, kept across its cells). `known` False: none of this is known (`no_settled_fingers`), the
-    links are computed from the angles."""
+    writes every meeting it computes: the memo is its thread's, kept across its cells).
+    `known` False: none of this is known (`no_settled_fingers`), the links are computed from
+    the angles."""
 
     known: bool
     links: np.ndarray
