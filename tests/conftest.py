@@ -75,8 +75,8 @@ def compiled_kernels(request):
         return
     from sweep.compute import warm
 
-    if warm.is_compiled():
-        return
+    # (also when compiled: this process then never looks at the cache folder again, which the
+    # fuzz campaign's commands, run as another user, could not read)
     reporter = request.config.pluginmanager.get_plugin("terminalreporter")
     warm.ensure_compiled(say=(lambda line: reporter.write_line(f"\n{line}"))
                          if reporter is not None else None)

@@ -107,10 +107,20 @@ def compile_reductions() -> None:
     red.merge(red).values_and_ranges()
 
 
+#: The kernel caches this process found compiled or compiled: looked up once, so that a later
+#: command of the same process (the tests run commands as another user, who may not read the
+#: cache folder) does not look again; the kernels are in memory by then.
+_FOUND_HERE: set = set()
+
+
 def ensure_compiled(say=None) -> None:
     """Compile every kernel unless this kernel set is in the cache already (module docstring);
     `say` gets the one line (default: standard error)."""
+    directory = kernels.cache_directory()
+    if directory in _FOUND_HERE:
+        return
     if is_compiled():
+        _FOUND_HERE.add(directory)
         return
     message = f"compiling kernels (first run only, about {COLD_SECONDS} s)"
     if say is None:
@@ -128,6 +138,7 @@ def ensure_compiled(say=None) -> None:
         compile_reductions()
     kernels.cache_directory().mkdir(parents=True, exist_ok=True)
     (kernels.cache_directory() / MARKER).write_text(f"{time.perf_counter() - started:.1f} s\n")
+    _FOUND_HERE.add(directory)
 
 
 def main(argv: list[str]) -> int:
