@@ -376,3 +376,13 @@ def test_the_figure_draws_g_and_x_star_grippers_on_x_stars_map(small_store, tmp_
             assert links == pytest.approx([row["g_l1"], row["g_l2"]], abs=1e-9)
         palm = next(line for line in ax.lines if line.get_gid() == f"{G_GRIPPER}:palm")
         assert abs(np.diff(palm.get_xdata())[0]) == pytest.approx(row["g_w"], abs=1e-9)
+
+
+@pytest.mark.parametrize("option", ["--tolerance", "--friction-change"])
+def test_a_robustness_option_that_is_not_finite_is_refused(small_store, option):
+    """nan passes click's FloatRange: the command refuses it, names the option, exit 2 (found
+    by the long fuzz profile: a ValueError reached the user)."""
+    res = invoke("optimize", small_store, option, "nan", "--no-progress")
+    assert res.exit_code == 2, res.output
+    assert option in res.output and "finite" in res.output
+    assert not (small_store.parent / (small_store.name + ".optimize.h5")).exists()

@@ -204,3 +204,18 @@ def test_a_position_off_the_grid_sees_each_finger_s_springs_at_its_own_tension()
                 assert e == pytest.approx(energy[j, i], rel=1e-12, abs=1e-12), (j, i)
                 checked += 1
     assert checked > 20
+
+
+def test_springs_with_a_slack_tendon_are_refused_naming_the_tension():
+    """joint_springs with a tension of 0: `sweep map` exits 2 with one line naming the tension
+    (f_right), not only the effect (found by the long fuzz profile)."""
+    from click.testing import CliRunner
+
+    from sweep.cli import main
+
+    res = CliRunner().invoke(main, ["map", "--l1", "1", "--l2", "1", "--r1", "0.25", "--r2",
+                                    "0.25", "--w", "0", "--r", "1", "--mu", "0", "--f-right",
+                                    "0", "--effects", "friction,joint_springs", "--K1", "0",
+                                    "--K2", "0", "--out", "unused.h5"])
+    assert res.exit_code == 2
+    assert "f_right = 0" in res.output

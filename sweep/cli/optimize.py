@@ -25,6 +25,13 @@ def _number(text: str, what: str) -> float:
     return v
 
 
+def _finite(ctx, param, value):
+    """A number option's value must be finite (click's FloatRange lets nan through)."""
+    if value is not None and not math.isfinite(value):
+        raise click.BadParameter(f"{value!r} is not a finite number")
+    return value
+
+
 def _name(text: str, what: str) -> str:
     name = text.strip()
     if name not in PARAMS:
@@ -128,9 +135,11 @@ def parse_parts(items, view) -> list:
 @click.option("--seeds", "n_seeds", type=click.IntRange(1, 100), default=8, show_default=True,
               help="Grid designs seeded: the store's best, then the next distinct ones.")
 @click.option("--tolerance", type=click.FloatRange(min=0.0), default=0.01, show_default=True,
+              callback=_finite,
               help="Manufacturing tolerance of each parameter (model units), for robustness.")
 @click.option("--friction-change", type=click.FloatRange(min=0.0), default=0.1,
-              show_default=True, help="Robustness in friction: the part's mu +- this.")
+              show_default=True, callback=_finite,
+              help="Robustness in friction: the part's mu +- this.")
 @click.option("--out", type=STORE_OUT, default=None,
               help="Results file [default: STORE's name + .optimize.h5, beside it].")
 @THREADS
