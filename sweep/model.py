@@ -293,10 +293,9 @@ def validate_springs(design: Design, command: Command, limits: Limits, effects: 
             raise ModelInputError(f"K{name[-1]} (joint_springs) must be >= 0, got {value!r}")
     tension = min(command.f_left, command.f_right)
     if tension <= 0:
-        raise ModelInputError("joint_springs: both tendon tensions f_left and f_right must be "
-                              f"> 0, got f_left = {command.f_left:g}, f_right = "
-                              f"{command.f_right:g} (a slack finger would be opened by its "
-                              "springs)")
+        raise ModelInputError("joint_springs: both tendon tensions must be > 0 (a slack finger "
+                              f"would be opened by its springs), got f_left = "
+                              f"{command.f_left:g}, f_right = {command.f_right:g}")
     span2 = limits.theta2_max - limits.theta2_min
     for k, span, radius, joint in ((effects.spring_k1, math.pi, design.r1, "K1 pi < F r1"),
                                    (effects.spring_k2, span2, design.r2,
