@@ -61,7 +61,7 @@ test: $(STAMP)
 
 # The same suite with every long profile on (tests/profiles.py): Hypothesis properties with their
 # large example counts, the fuzz campaign's 23,000 random cases, the end-to-end oracle
-# comparisons at full size and the recipe's toy effect compiled. Not in CI (.ci/run): about 20
+# comparisons at full size and the recipe's toy effect compiled. Not in CI (.ci/run): 20 to 30
 # minutes on 2 cores (README, "Tests").
 test-long: $(STAMP)
 	SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_LONG_ORACLES=1 SWEEP_LONG_RECIPE=1 \
