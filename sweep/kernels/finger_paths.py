@@ -56,14 +56,20 @@ def edge_event_margin(event, t1, dx, dy, finger, springs):
     """(holds, margin) of one edge-path event at t1; the margin is continuous in t1 and >= 0
     where the event holds, so a bracketing root finder can interpolate it."""
     t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-    holds = (path_events(t1, t2, k2, finger, springs) & event) != 0
+    return edge_margin(event, t1, t2, k2, finger, springs)
+
+
+@inner
+def edge_margin(event, t1, t2, k2, finger, springs):
+    """edge_event_margin at a state (t1, t2, k2) of the edge path. Each test is path_events' own
+    (the same expression and comparison), for this event only: the bracket evaluates one event
+    many times, and the others' trigonometry would be wasted."""
     if event == STICK:
         margin = max_torque_balance(k2, t1, t2, finger, springs)
-    elif event == DISTAL_STOP:
-        margin = t2 - (finger.theta2_max - RANGE_TOL)
-    else:  # SLIP
-        margin = k2 - (finger.l2 + RANGE_TOL)
-    return holds, margin
+        return margin >= 0.0, margin
+    if event == DISTAL_STOP:
+        return t2 >= finger.theta2_max - RANGE_TOL, t2 - (finger.theta2_max - RANGE_TOL)
+    return k2 > finger.l2 + RANGE_TOL, k2 - (finger.l2 + RANGE_TOL)  # SLIP
 
 
 # ---------------------------------------------------------------------------------------------
@@ -214,26 +220,25 @@ def event_margin(event, t1, dx, dy, finger, springs, on_tip_path):
 
 
 @inner
-def event_mask_at(t1, dx, dy, finger, springs, on_tip_path):
-    if not on_tip_path:
-        t2, k2 = distal_tangency(dx, dy, t1, finger.l1, finger.r)
-        return path_events(t1, t2, k2, finger, springs)
-    return tip_path_events(t1, dx, dy, finger, springs)
+def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, on_tip_path):
+    """Where an event starts along the path: it holds at lo, not at hi (lo < hi). Returns the
+    final bracket (lo, hi): the event holds at lo, and hi - lo <= root_tol."""
+    if event == PROXIMAL_STOP and not on_tip_path:  # the edge path's last node, t1 = 0
+        return 0.0, hi
+    _, f_lo = event_margin(event, lo, dx, dy, finger, springs, on_tip_path)
+    _, f_hi = event_margin(event, hi, dx, dy, finger, springs, on_tip_path)
+    return bracket_event(event, lo, hi, f_lo, f_hi, dx, dy, finger, springs, root_tol,
+                         on_tip_path)
 
 
 @inner
-def event_crossing(event, lo, hi, dx, dy, finger, springs, root_tol, on_tip_path):
-    """Where an event starts along the path: it holds at lo, not at hi (lo < hi). Returns the
-    final bracket (lo, hi): the event holds at lo, and hi - lo <= root_tol.
+def bracket_event(event, lo, hi, f_lo, f_hi, dx, dy, finger, springs, root_tol, on_tip_path):
+    """event_crossing from the event's margins at the bracket's ends (f_lo, f_hi).
 
     Safeguarded Illinois regula falsi on the event margin: every probe lies at least root_tol/2
     inside the bracket and every fourth is a bisection, so the bracket shrinks to root_tol in a
     handful of evaluations (model-notes D4).
     """
-    if event == PROXIMAL_STOP and not on_tip_path:  # the edge path's last node, t1 = 0
-        return 0.0, hi
-    _, f_lo = event_margin(event, lo, dx, dy, finger, springs, on_tip_path)
-    _, f_hi = event_margin(event, hi, dx, dy, finger, springs, on_tip_path)
     kept = 0  # +1: lo kept moving, -1: hi kept moving (Illinois halves the stale end)
     for it in range(400):  # bounded: at worst every fourth probe halves the bracket
         width = hi - lo
@@ -272,6 +277,10 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, on_tip_path):
     hi = s_start
     lo = s_start
     events = 0
+    # the edge path's tangency at the last two nodes (lo, hi): the brackets start from their
+    # margins without solving the tangency again (hi_known: hi is a node, not s_start)
+    t2_lo = k2_lo = t2_hi = k2_hi = 0.0
+    hi_known = False
     # Bounded in floating point before converting (no int overflow for any step: Numba's
     # math.ceil returns int64, which overflowed for t1 / step > 9.2e18 and skipped the path; found
     # by running the tests under NUMBA_DISABLE_JIT=1). The last node is s_end.
@@ -280,10 +289,17 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, on_tip_path):
         lo = s_start - n * step
         if lo <= s_end or n == n_max:
             lo = s_end
-        events = event_mask_at(lo, dx, dy, finger, springs, on_tip_path)
+        if on_tip_path:
+            events = tip_path_events(lo, dx, dy, finger, springs)
+        else:
+            t2_lo, k2_lo = distal_tangency(dx, dy, lo, finger.l1, finger.r)
+            events = path_events(lo, t2_lo, k2_lo, finger, springs)
         if events != 0:
             break
         hi = lo
+        t2_hi = t2_lo
+        k2_hi = k2_lo
+        hi_known = True
     best_t1 = -math.inf
     best_after = hi
     best_event = PROXIMAL_STOP
@@ -293,8 +309,17 @@ def follow_path(dx, dy, s_start, s_end, finger, solver, springs, on_tip_path):
             tol = solver.root_tol
             if several or (event & JOINT_STOPS) != 0:
                 tol = min(tol, EXACT_TOL)
-            t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol,
-                                              on_tip_path)
+            if on_tip_path or event == PROXIMAL_STOP:
+                t_cross, t_after = event_crossing(event, lo, hi, dx, dy, finger, springs, tol,
+                                                  on_tip_path)
+            else:
+                if not hi_known:
+                    t2_hi, k2_hi = distal_tangency(dx, dy, hi, finger.l1, finger.r)
+                    hi_known = True
+                _, f_lo = edge_margin(event, lo, t2_lo, k2_lo, finger, springs)
+                _, f_hi = edge_margin(event, hi, t2_hi, k2_hi, finger, springs)
+                t_cross, t_after = bracket_event(event, lo, hi, f_lo, f_hi, dx, dy, finger,
+                                                 springs, tol, on_tip_path)
             if t_cross > best_t1:
                 best_t1 = t_cross
                 best_after = t_after
