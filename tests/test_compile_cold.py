@@ -30,7 +30,7 @@ SIGNATURES = r"""
 import json, numba
 from sweep.compute import warm
 warm.compile_maps()          # both kernel sets in this process, to see every signature
-warm.compile_reductions()
+warm.compile_summaries()
 import sweep.kernels as k
 found = {}
 import importlib, pkgutil

@@ -18,7 +18,7 @@ def cold(tmp_path, monkeypatch):
     done = []
     monkeypatch.setattr(kernels, "_CACHE_DIRECTORY", tmp_path / "kernels-x")
     monkeypatch.setattr(warm, "compile_maps", lambda: done.append("maps"))
-    monkeypatch.setattr(warm, "compile_reductions", lambda: done.append("reductions"))
+    monkeypatch.setattr(warm, "compile_summaries", lambda: done.append("summaries"))
 
     class Second:
         def __init__(self, args, **kw):
@@ -37,13 +37,13 @@ def test_a_cold_cache_compiles_both_sets_says_so_once_and_leaves_its_marker(cold
     assert not warm.is_compiled()
     warm.ensure_compiled(said.append)
     assert said == [f"compiling kernels (first run only, about {warm.COLD_SECONDS} s)"]
-    assert cold == ["process: -m sweep.compute.warm reductions", "maps"]
+    assert cold == ["process: -m sweep.compute.warm summaries", "maps"]
     assert warm.is_compiled()
     warm.ensure_compiled(said.append)   # the next start: nothing said, nothing compiled
     assert len(said) == 1 and len(cold) == 2
 
 
-def test_the_reductions_compile_here_when_the_second_process_fails(cold, monkeypatch):
+def test_the_second_set_compiles_here_when_the_second_process_fails(cold, monkeypatch):
     class Failing:
         def __init__(self, args, **kw):
             pass
@@ -53,7 +53,7 @@ def test_the_reductions_compile_here_when_the_second_process_fails(cold, monkeyp
 
     monkeypatch.setattr(subprocess, "Popen", Failing)
     warm.ensure_compiled(lambda _: None)
-    assert cold == ["maps", "reductions"] and warm.is_compiled()
+    assert cold == ["maps", "summaries"] and warm.is_compiled()
 
 
 def test_an_interrupted_compilation_leaves_no_marker(cold, monkeypatch):

@@ -10,8 +10,8 @@ starts them:
 Cold compilation = cold - warm (the compute, imports and files are in both). Trees rotate each
 round; prints every round's seconds per command, the medians and each tree's ratio to the first.
 `--sets` also times this tree's kernel sets one by one (`python -m sweep.compute.warm maps`,
-`... reductions`, each cold in a new cache) and `ensure_compiled` (both sets at once, the
-reductions in a second process).
+`... summaries`, each cold in a new cache) and `ensure_compiled` (both sets at once, the
+summaries in a second process).
 
 `git worktree add --detach <dir> <commit>` gives an old tree to compare with.
 """
@@ -103,7 +103,7 @@ def run(args) -> int:
                   f"x{med / ref:.2f} of the first tree", flush=True)
         if args.sets:
             for label, argv in (("maps", ["-m", "sweep.compute.warm", "maps"]),
-                                ("reductions", ["-m", "sweep.compute.warm", "reductions"]),
+                                ("summaries", ["-m", "sweep.compute.warm", "summaries"]),
                                 ("ensure_compiled (both, two processes)",
                                  ["-c", "from sweep.compute.warm import ensure_compiled; "
                                         "ensure_compiled()"])):

@@ -5,12 +5,17 @@ the cache is keyed by the kernel sources). One compilation serves every scene: e
 optional outputs are run-time switches of one kernel set. On a machine where that set is not in
 the cache yet, `ensure_compiled` says so in one line and compiles every kernel a command calls,
 through the same public functions and with the same argument types as a real run (a kernel
-compiles once per argument types): the maps' kernels here, the manipulation metric's hull
-reductions in a second process at the same time (they share no kernel of different argument
-types with the maps' ones: `kernels/hull.py`). It then leaves a marker in the cache, so the next
-start only loads (about a second).
+compiles once per argument types), in two processes at the same time: here one map and the
+manipulation sweep (`compile_maps`), and in a second process finger_collision's search, the
+summaries sweep and the manipulation metric's hull reductions (`compile_summaries`). Both
+compile the finger's kernels (in a process of its own a kernel compiles with all it calls), so
+the split balances the two: 56 s in this one against 17 s in the second, before the summaries
+sweep moved there, 39 s and 39 s after (docs/performance.md). No kernel compiles with different
+argument types in the two (two processes writing different signatures of one kernel could spoil
+the cache's index: tests/test_compile_cold.py). It then leaves a marker in the cache, so the
+next start only loads (about a second).
 
-    python -m sweep.compute.warm [maps|reductions]     # what `ensure_compiled` runs
+    python -m sweep.compute.warm [maps|summaries]     # what `ensure_compiled` runs
 """
 from __future__ import annotations
 
@@ -36,9 +41,8 @@ def is_compiled() -> bool:
 
 
 def compile_maps() -> None:
-    """Every kernel of maps and sweeps: one map (with and without forces), the sweep's cells
-    (summaries, and with the manipulation metric), one map the sweep's way, the pictures'
-    trajectories."""
+    """One map (with and without forces), the sweep's cells with the manipulation metric, one
+    map the sweep's way, the pictures' trajectories."""
     from ..kernels.trajectories import (
         downhill_neighbour,
         max_slide_points,
@@ -48,7 +52,7 @@ def compile_maps() -> None:
     from ..kernels.meeting_search import no_slide_context
     from ..kernels.records import Hand
     from ..kernels.streamline import max_streamline_steps, streamline_walk
-    from .batch import cell_map_fields, manipulation_cells, summarize_cells
+    from .batch import cell_map_fields, manipulation_cells
     from .layout import kernel_records
     from .maps import compute_map
 
@@ -57,7 +61,6 @@ def compile_maps() -> None:
     widths = np.array([0.0, 0.8])
     for forces in (False, True):
         m = compute_map(design, part, grid=Grid(h=h), forces=forces)
-    summarize_cells(cell, widths, Command(), h, Limits(), Accuracy())
     manipulation_cells(cell, widths, h, Limits(), Accuracy(), Effects(), np.array([0]),
                        np.array([[0, 0]]), np.array([8]))
     cell_map_fields(cell[0], 0.8, Command(), h, Limits(), Accuracy(), forces=True)
@@ -80,8 +83,7 @@ def compile_maps() -> None:
 
 def compile_collision_search() -> None:
     """finger_collision's search over a map (`meeting_search.resolve_collisions` and all below
-    it), with the argument types the maps' pipeline passes: the second process compiles it
-    while the first compiles the fingers, and the first then loads it from the cache."""
+    it), with the argument types the maps' pipeline passes."""
     from ..kernels.meeting_search import resolve_collisions
     from ..kernels.records import new_finger_arrays, no_settled_fingers
     from .layout import kernel_records
@@ -93,18 +95,22 @@ def compile_collision_search() -> None:
                        np.empty((0, 0), dtype=np.bool_))
 
 
-def compile_reductions() -> None:
-    """The manipulation metric's hull reductions (the sweep's chunks and the merge), after
-    finger_collision's search (compile_collision_search)."""
+def compile_summaries() -> None:
+    """The second process's set: finger_collision's search (compile_collision_search), the
+    manipulation metric's hull reductions (the sweep's chunks and the merge) and the sweep's
+    cells with summaries only."""
+    from .batch import summarize_cells
     from .manipulation import PartReduction
 
     compile_collision_search()
-
     rng = np.random.default_rng(0)
     n = 40
     red = PartReduction.from_entries(rng.integers(0, 3, n), rng.normal(size=n),
                                      rng.normal(size=n), np.arange(n), rng.uniform(size=(n, 5)))
     red.merge(red).values_and_ranges()
+    # last: by then the first process has cached most of the one-map kernels it shares
+    summarize_cells(np.array([[1.2, 0.8, 0.12, 0.1, 0.4, 0.4]]), np.array([0.0, 0.8]), Command(),
+                    0.4, Limits(), Accuracy())
 
 
 #: The kernel caches this process found compiled or compiled: looked up once, so that a later
@@ -128,22 +134,22 @@ def ensure_compiled(say=None) -> None:
     else:
         say(message)
     started = time.perf_counter()
-    second = subprocess.Popen([sys.executable, "-m", __name__, "reductions"], env=os.environ,
+    second = subprocess.Popen([sys.executable, "-m", __name__, "summaries"], env=os.environ,
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         compile_maps()
     finally:
         failed = second.wait() != 0
     if failed:  # (compiled here instead; what the other process cached stays valid)
-        compile_reductions()
+        compile_summaries()
     kernels.cache_directory().mkdir(parents=True, exist_ok=True)
     (kernels.cache_directory() / MARKER).write_text(f"{time.perf_counter() - started:.1f} s\n")
     _FOUND_HERE.add(directory)
 
 
 def main(argv: list[str]) -> int:
-    for name in argv or ["maps", "reductions"]:
-        {"maps": compile_maps, "reductions": compile_reductions}[name]()
+    for name in argv or ["maps", "summaries"]:
+        {"maps": compile_maps, "summaries": compile_summaries}[name]()
     return 0
 
 
