@@ -348,14 +348,15 @@ def caging_areas(scene: Scene, designs: np.ndarray, parts: np.ndarray, keys: np.
     r_vals, mu_vals = np.asarray(scene.values["r"]), np.asarray(scene.values["mu"])
     calls = []
     for (ci, ws), rows in groups.items():
-        # Numba's OpenMP layer gives each thread one contiguous block of a prange's cells (no
-        # load balancing; `numba.set_parallel_chunksize` has no effect there, measured): calls
-        # of `threads` cells of similar cost, largest first, keep every thread busy.
+        # One call of the group's cells, largest first: the threads take its cells one at a
+        # time, each the next as it finishes one (_summarize_on_shared_fields), so no thread
+        # waits for another's last cell until the group's end (calls of `threads` cells each
+        # did, at every call: docs/performance.md).
         cost = [sum(grid_points(cells[c, 1], cells[c, 2], scene.widths[wi],
                                 r_vals[int(cells[c, 5])], h) for wi in widths_of[c])
                 for c in rows]
-        rows = [rows[k] for k in sorted(range(len(rows)), key=lambda k: (-cost[k], k))]
-        calls += [(ci, ws, rows[k:k + threads]) for k in range(0, len(rows), threads)]
+        calls.append((ci, ws, [rows[k] for k in sorted(range(len(rows)),
+                                                      key=lambda k: (-cost[k], k))]))
     for ci, ws, rows in calls:
         c = cells[rows]
         want = np.array([[wi in widths_of[r] for wi in ws] for r in rows], dtype=np.bool_)
