@@ -11,6 +11,8 @@ The compute is `sweep.compute.batch.summarize_cells`, looked up at call time (te
 """
 from __future__ import annotations
 
+import collections
+import concurrent.futures
 import contextlib
 import os
 import shutil
@@ -19,6 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numba
 import numpy as np
 
 from .. import __version__, grid
@@ -144,10 +147,28 @@ def compute_items_with_manipulation(scene: Scene, start: int, stop: int):
         mu_low=scene.scenario_c_mu_low)
 
 
+#: Sub-chunks in flight at once: while one's kernels run, another's single-threaded work (its
+#: manipulation reductions' Python side, reading and writing files) fills the cores
+#: (docs/performance.md, "Sub-chunks in flight").
+IN_FLIGHT = 2
+
+
+def compute_sub_chunk(scene: Scene, start: int, stop: int, threads: int):
+    """(summaries, manipulation data or None) of items [start, stop) on `threads` kernel
+    threads (Numba's thread count is the calling thread's own: set here, in the worker)."""
+    with numba_threads(threads):
+        if scene.manipulation:
+            return compute_items_with_manipulation(scene, start, stop)
+        return compute_items(scene, start, stop), None
+
+
 def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bool = True,
               desc: str | None = None) -> tuple[list, int, float]:
-    """Compute every missing sub-chunk of items [start, stop) into `parts_dir`.
-    Returns (part blocks, maps computed now, wall seconds of the compute)."""
+    """Compute every missing sub-chunk of items [start, stop) into `parts_dir`, IN_FLIGHT at a
+    time, written in order as each finishes. Returns (part blocks, maps computed now, wall
+    seconds of the compute). A part's compute seconds are the wall time since the previous
+    part was written (their sum is the compute's wall time; overlapping sub-chunks would
+    count twice)."""
     item_files = prepare_parts_dir(parts_dir, scene, start, stop)
     n_w = len(scene.values["w"])
     size = scene.sub_chunk_cells or scene.group_size
@@ -160,22 +181,36 @@ def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bo
     t0 = time.perf_counter()
     bar = _progress_bar(total=(stop - start) * n_w, initial=done_maps, desc=desc or scene.name,
                         enabled=progress)
+    threads = numba.get_num_threads()
+    pending = iter(todo)
+    running: collections.deque = collections.deque()
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=IN_FLIGHT)
+
+    def start_next():
+        for a, b in pending:
+            running.append((a, b, pool.submit(compute_sub_chunk, scene, a, b, threads)))
+            return
+
     try:
-        for a, b in todo:
-            t = time.perf_counter()
-            manipulation = None
-            if scene.manipulation:
-                data, manipulation = compute_items_with_manipulation(scene, a, b)
-            else:
-                data = compute_items(scene, a, b)
-            seconds = time.perf_counter() - t
+        for _ in range(IN_FLIGHT):
+            start_next()
+        last = time.perf_counter()
+        while running:
+            a, b, future = running.popleft()
+            data, manipulation = future.result()
+            start_next()
+            now = time.perf_counter()
             path = part_path(parts_dir, a, b)
-            write_item_file(path, scene, a, b, data, KIND_PART, compute_seconds=seconds,
-                        manipulation=manipulation)
+            write_item_file(path, scene, a, b, data, KIND_PART, compute_seconds=now - last,
+                            manipulation=manipulation)
+            last = now
             item_files.append(read_item_file(path, with_data=False))
             computed += (b - a) * n_w
             bar.update((b - a) * n_w)
     finally:
+        for _, _, future in running:   # (on an error or an interrupt: no new sub-chunk starts)
+            future.cancel()
+        pool.shutdown(wait=True)
         bar.close()
     return item_files, computed, time.perf_counter() - t0
 
