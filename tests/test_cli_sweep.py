@@ -218,6 +218,27 @@ def test_ctrl_c_keeps_finished_work_and_rerun_resumes(cli, reference, tmp_path, 
     assert_same_summaries(single, out)
 
 
+def test_every_sub_chunk_runs_on_the_threads_asked_for(cli, reference, tmp_path, monkeypatch):
+    """The runner computes sub-chunks in worker threads, where Numba's thread count is the
+    thread's own: `--threads 1` must reach every kernel call there, and the store is the same."""
+    import numba
+
+    cfg, single = reference
+    real = batch.summarize_cells
+    seen = []
+
+    def recording(cells, *args, **kwargs):
+        seen.append(numba.get_num_threads())
+        return real(cells, *args, **kwargs)
+
+    monkeypatch.setattr(batch, "summarize_cells", recording)
+    out = tmp_path / "one-thread.h5"
+    res = invoke(cli, "run", cfg, "--out", out, "--no-progress", "--threads", 1)
+    assert res.exit_code == 0, res.output
+    assert len(seen) >= 2 and set(seen) == {1}
+    assert_same_summaries(single, out)
+
+
 def test_foreign_work_directory_needs_restart(cli, reference, tmp_path):
     cfg, single = reference
     other = write_config(tmp_path / "other.yaml", tiny(grid={"h": 0.3}))
