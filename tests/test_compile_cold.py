@@ -24,7 +24,7 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(not LONG_COMPILE, reason="long profile: SWEEP_LONG_COMPILE=1")
 
 #: Kernels that legitimately have several signatures (their argument dtypes differ by design).
-SEVERAL = {"gather_row": 3}
+SEVERAL = {"gather_field": 3}
 
 SIGNATURES = r"""
 import json, numba

@@ -38,6 +38,7 @@ from .finger_geometry import (
     tangent_length,
     tangent_length_error,
     vertex_entry,
+    vertex_entry_at,
     wrap_angle,
 )
 from .finger_statics import (
@@ -94,9 +95,10 @@ def closing_contact(dx, dy, finger, effects):
     theta2_max = finger.theta2_max
     if tangent_length(dx * dx + dy * dy, r) < 0.0:
         return FingerState(OVERLAP, 0.0, 0.0, 0.0, 0.0, False)
+    alpha = math.atan2(dy, dx)  # the polar angle of d, shared by the sweep's events
 
     # Rigid sweep, proximal tangency first (provably the earliest event when valid).
-    t1, k1 = proximal_tangency(dx, dy, r)
+    t1, k1 = proximal_tangency(alpha, dx, dy, r)
     slack = tangency_slack(k1, dx * dx + dy * dy, r)  # a part touching the joint (stability.md)
     slack_k1 = RANGE_TOL + tangent_length_error(k1, 4.0 * EPS * (dx * dx + dy * dy))
     # a part the feasibility test lets dip below the palm line (y >= r - RANGE_TOL) already
@@ -113,7 +115,7 @@ def closing_contact(dx, dy, finger, effects):
     mode = FREE
     k1_out = 0.0
     k2_out = 0.0
-    t1c, k2c = rigid_distal_tangency(dx, dy, l1, r, theta2_min)
+    t1c, k2c = rigid_distal_tangency(alpha, dx, dy, l1, r, theta2_min)
     # validity within the closed form's own round-off (D30): a tangency rejected by round-off
     # let the finger sweep on with its distal link through the part
     slack_k2, slack_t1 = rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2c)
@@ -124,14 +126,14 @@ def closing_contact(dx, dy, finger, effects):
         # round-off must not decide between sticking and sliding
         k2_out = clamp(k2c, 0.0, l2) if k2c > slack_k2 else 0.0
     # A vertex wins only if strictly earlier: at a tie the tangency covers the link's end.
-    t_b = joint_strike_angle(dx, dy, l1, r)
+    t_b = joint_strike_angle(alpha, dx, dy, l1, r)
     if in_range(t_b, rest, math.pi) and t_b < best_t1 - slack_t1:
         best_t1 = t_b
         mode = strike_mode(effects.tip_contact, JOINT_STRIKE)
         k1_out = l1
         k2_out = 0.0
     rho_t, delta_t = tip_polar(theta2_min, l1, l2)
-    t_t = vertex_entry(dx, dy, rho_t, delta_t, r)
+    t_t = vertex_entry_at(alpha, dx, dy, rho_t, delta_t, r)
     tie = slack_t1 if mode == DISTAL_ON_LOWER_STOP else RANGE_TOL
     if in_range(t_t, rest, math.pi) and t_t < best_t1 - tie:
         best_t1 = t_t

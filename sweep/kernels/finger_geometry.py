@@ -108,13 +108,15 @@ def distal_tangency_slack(dx, dy, t1, l1, r, k2):
 
 
 @inner
-def proximal_tangency(dx, dy, r):
+def proximal_tangency(alpha, dx, dy, r):
     """MODEL 3.1: (t1, k1) of the proximal link tangent to the part; k1 < 0 if d is inside the
-    disc."""
+    disc. alpha = atan2(dy, dx), the polar angle of d: the closing sweep computes it once for
+    all its events (the same bits, one arctangent instead of up to four, docs/performance.md).
+    """
     k1 = tangent_length(dx * dx + dy * dy, r)
     if k1 < 0.0:
         return NO_ANGLE, -1.0
-    return math.atan2(dy, dx) - math.atan2(r, k1), k1
+    return alpha - math.atan2(r, k1), k1
 
 
 @entry
@@ -132,8 +134,9 @@ def distal_tangency(dx, dy, t1, l1, r):
 
 
 @inner
-def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
-    """MODEL 3.3: (t1, k2) of the distal link (held at theta2_min) tangent during the rigid sweep.
+def rigid_distal_tangency(alpha, dx, dy, l1, r, theta2_min):
+    """MODEL 3.3: (t1, k2) of the distal link (held at theta2_min) tangent during the rigid sweep;
+    alpha = atan2(dy, dx) (proximal_tangency).
 
     Returns (inf, -1) if the distal line never reaches the part.
     """
@@ -142,7 +145,6 @@ def rigid_distal_tangency(dx, dy, l1, r, theta2_min):
     if dist2 < r_eff * r_eff * (1.0 - TOUCH_REL):
         return NO_ANGLE, -1.0
     dist = math.sqrt(dist2)
-    alpha = math.atan2(dy, dx)
     offset = math.asin(min(r_eff / dist, 1.0))  # alpha - phi
     phi = alpha - offset
     k2 = dist * math.cos(offset) - l1 * math.cos(theta2_min)
@@ -156,10 +158,25 @@ def vertex_entry(dx, dy, rho, delta, r):
     The vertex turns counter-clockwise about the origin of (dx, dy). Returns inf if it never does,
     or only grazes the disc (model-notes D3).
     """
-    c = entry_cosine(dx, dy, rho, r)
-    if c >= 1.0 - RANGE_TOL or c < -1.0:  # a graze (c = 1) touches without entering
+    if not enters_disc(entry_cosine(dx, dy, rho, r)):
         return NO_ANGLE
-    return math.atan2(dy, dx) - math.acos(c) - delta
+    return vertex_entry_at(math.atan2(dy, dx), dx, dy, rho, delta, r)
+
+
+@inner
+def enters_disc(c):
+    """Whether a vertex whose MODEL 4 acos argument is c enters the disc: a graze (c = 1)
+    touches without entering, c < -1 never reaches it."""
+    return -1.0 <= c < 1.0 - RANGE_TOL
+
+
+@inner
+def vertex_entry_at(alpha, dx, dy, rho, delta, r):
+    """vertex_entry with alpha = atan2(dy, dx) given (proximal_tangency)."""
+    c = entry_cosine(dx, dy, rho, r)
+    if not enters_disc(c):
+        return NO_ANGLE
+    return alpha - math.acos(c) - delta
 
 
 @inner
@@ -174,14 +191,14 @@ def entry_cosine(dx, dy, rho, r):
 
 
 @inner
-def joint_strike_angle(dx, dy, l1, r):
+def joint_strike_angle(alpha, dx, dy, l1, r):
     """MODEL 4: the rigid sweep's angle at which B, turning about J, strikes the
     part. A graze of B counts (vertex_entry ignores it): a link attached to B enters the disc
     just after, the distal link when the disc is outside B's circle (it leaves B at
     theta2_min > -90 deg from the proximal, towards the centre) and the proximal link when it
     is inside. A graze is the acos argument within RANGE_TOL below 1 or within its own
-    round-off above it (model-notes D30)."""
-    t_b = vertex_entry(dx, dy, l1, 0.0, r)
+    round-off above it (model-notes D30). alpha = atan2(dy, dx) (proximal_tangency)."""
+    t_b = vertex_entry_at(alpha, dx, dy, l1, 0.0, r)
     if t_b != NO_ANGLE:
         return t_b
     c = entry_cosine(dx, dy, l1, r)
@@ -189,4 +206,4 @@ def joint_strike_angle(dx, dy, l1, r):
     err_c = 4.0 * EPS * (l1 * l1 + dist2 + r * r) / (2.0 * l1 * math.sqrt(dist2))
     if c < 1.0 - RANGE_TOL or c > 1.0 + err_c:
         return NO_ANGLE
-    return math.atan2(dy, dx) - math.acos(min(c, 1.0))
+    return alpha - math.acos(min(c, 1.0))

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..model import RANGE_TOL
 from .jit import inner
-from .finger_geometry import distal_tangency, entry_cosine
+from .finger_geometry import distal_tangency, enters_disc, entry_cosine
 from .finger_statics import joint_torques, max_torque_balance, unit_normal_to, vertex_columns
 
 
@@ -83,7 +83,7 @@ def tip_on_disc(t2, dx, dy, finger):
     [-1, 1] where it does not meet). The rigid sweep's tip strike is this at t2 = theta2_min."""
     rho, delta = tip_polar(t2, finger.l1, finger.l2)
     c = entry_cosine(dx, dy, rho, finger.r)
-    meets = -1.0 <= c < 1.0 - RANGE_TOL
+    meets = enters_disc(c)
     t1 = math.atan2(dy, dx) - math.acos(min(max(c, -1.0), 1.0)) - delta
     return meets, c, t1
 

@@ -4,7 +4,6 @@ friction cones, the part's equilibrium test, containment, whether the fingers cr
 mouth's opening (`mouth_opening`, L_open of MODEL 8).
 """
 import math
-import numpy as np
 
 from ..model import (
     DISTAL_ONLY,
@@ -62,29 +61,40 @@ def add_contact(angles, n, normal_angle, cone_half_angle):
 
 
 @inner
-def finger_contact_normals(angles, n, side, mode, t1, t2, cone_half_angle):
-    """Add the tangent contacts of a finger's final mode (normals a_y, b_y; mirrored on the
-    left)."""
+def finger_contact_normals(side, mode, t1, t2):
+    """The world angles of a finger's tangent contact normals in its final mode (a_y, b_y;
+    mirrored on the left): (how many, first, second). Angles, not the cone's array: a kernel
+    that takes an array and calls another pays a reference-count pair per call
+    (docs/performance.md), and this runs at every stable-candidate point."""
+    count = 0
+    first = 0.0
+    second = 0.0
     if mode == PROXIMAL_ONLY or mode == TWO_PHALANX or mode == PROXIMAL_TIP:
         a = t1 + 0.5 * math.pi  # angle of a_y in the finger frame
-        n = add_contact(angles, n, a if side == 1 else math.pi - a, cone_half_angle)
+        first = a if side == 1 else math.pi - a
+        count = 1
     if mode == TWO_PHALANX or mode == DISTAL_ONLY:
         b = t1 + t2 + 0.5 * math.pi  # angle of b_y
-        n = add_contact(angles, n, b if side == 1 else math.pi - b, cone_half_angle)
-    return n
+        b = b if side == 1 else math.pi - b
+        if count == 0:
+            first = b
+        else:
+            second = b
+        count += 1
+    return count, first, second
 
 
 @inner
-def tip_contact_normal(angles, n, side, mode, x, y, t1, t2, l1, l2, w, cone_half_angle):
-    """Add a finger's tip contact (tip_contact, model-notes D15): normal from the tip to the
-    part centre, world frame."""
+def tip_contact_normal(side, mode, x, y, t1, t2, l1, l2, w):
+    """A finger's tip contact (tip_contact, model-notes D15): (whether it has one, the world
+    angle of its normal, from the tip to the part centre)."""
     if mode == TIP_ONLY or mode == PROXIMAL_TIP:
         _, _, _, _, tx, ty = finger_polyline(side, t1, t2, l1, l2, w)
-        n = add_contact(angles, n, math.atan2(y - ty, x - tx), cone_half_angle)
-    return n
+        return True, math.atan2(y - ty, x - tx)
+    return False, 0.0
 
 
-@inner
+@inner(inline="always")
 def origin_in_cone_hull(angles, n):
     """MODEL 7: the origin lies in the convex hull of unit edge directions iff no angular gap > pi.
 
@@ -93,7 +103,7 @@ def origin_in_cone_hull(angles, n):
     if n == 0:
         return False
     for i in range(n):
-        angles[i] = angles[i] % (2.0 * math.pi)
+        angles[i] = angle_in_turn(angles[i])
     sort_small(angles, n)
     largest_gap = angles[0] + 2.0 * math.pi - angles[n - 1]
     for i in range(1, n):
@@ -102,6 +112,23 @@ def origin_in_cone_hull(angles, n):
 
 
 @inner
+def angle_in_turn(a):
+    """a % (2 pi), Python's float modulo (in [0, 2 pi)), the same bits without a call to fmod
+    for the angles the cone hull meets, within one turn of [0, 2 pi): there fmod(a, 2 pi) is a
+    itself or a - 2 pi exactly (Sterbenz), so only the final addition rounds, as in `%`."""
+    turn = 2.0 * math.pi
+    if 0.0 < a < turn:
+        return a
+    if -turn <= a < 0.0:
+        return a + turn
+    if turn <= a < 2.0 * turn:
+        return a - turn
+    if a == 0.0:
+        return 0.0  # -0.0 % turn is +0.0
+    return a % turn
+
+
+@inner(inline="always")
 def sort_small(values, n):
     """Sort values[:n] in place, ascending (insertion sort: a handful of values, where np.sort
     costs more than the sorting)."""
@@ -137,11 +164,24 @@ def part_in_equilibrium(angles, x, y, w, r, cones, mode_l, t1_l, t2_l, mode_r, t
     `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
     """
     cone_palm, cone_l, cone_r = cones
-    n = finger_contact_normals(angles, np.int64(0), LEFT, mode_l, t1_l, t2_l, cone_l)
-    n = finger_contact_normals(angles, n, RIGHT, mode_r, t1_r, t2_r, cone_r)
+    n = 0
+    count, first, second = finger_contact_normals(LEFT, mode_l, t1_l, t2_l)
+    if count > 0:
+        n = add_contact(angles, n, first, cone_l)
+    if count > 1:
+        n = add_contact(angles, n, second, cone_l)
+    count, first, second = finger_contact_normals(RIGHT, mode_r, t1_r, t2_r)
+    if count > 0:
+        n = add_contact(angles, n, first, cone_r)
+    if count > 1:
+        n = add_contact(angles, n, second, cone_r)
     if tip_contact.on:
-        n = tip_contact_normal(angles, n, LEFT, mode_l, x, y, t1_l, t2_l, l1, l2, w, cone_l)
-        n = tip_contact_normal(angles, n, RIGHT, mode_r, x, y, t1_r, t2_r, l1, l2, w, cone_r)
+        has_tip, normal = tip_contact_normal(LEFT, mode_l, x, y, t1_l, t2_l, l1, l2, w)
+        if has_tip:
+            n = add_contact(angles, n, normal, cone_l)
+        has_tip, normal = tip_contact_normal(RIGHT, mode_r, x, y, t1_r, t2_r, l1, l2, w)
+        if has_tip:
+            n = add_contact(angles, n, normal, cone_r)
     if touches_palm(x, y, w, r):
         n = add_contact(angles, n, 0.5 * math.pi, cone_palm)
     if n < 4:

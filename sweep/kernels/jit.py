@@ -18,6 +18,12 @@ def entry(fn=None, **options):
     return njit(cache=True, **options)(fn)
 
 
-def inner(fn):
-    """A kernel called only by other kernels (no Python wrapper)."""
-    return njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)(fn)
+def inner(fn=None, **options):
+    """A kernel called only by other kernels (no Python wrapper). `options`: Numba's; only
+    `inline="always"`, and only on a small leaf with one or two callers that hold arrays: a
+    call of a kernel that can fail keeps the caller's reference counts on its arrays (the error
+    path skips the decrement, so LLVM's pruning cannot pair them); inlined, there is no such
+    path (docs/performance.md)."""
+    if fn is None:
+        return lambda f: inner(f, **options)
+    return njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True, **options)(fn)

@@ -96,36 +96,37 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
     """Both fingers of the map of palm half-width `step` grid steps, from the shared field:
     (world xs, FingerArrays on (2, ny, 2 ncol + 1)). Copied row by row, one finger's field at a
     time: reads and writes run along rows (column by column it took over a third of the
-    per-map work after the finger field)."""
+    per-map work after the finger field); one call per field, not per row (each call with
+    arrays costs reference-count pairs, docs/performance.md)."""
     nx = 2 * ncol + 1
     xs = np.empty(nx)
     for c in range(nx):
         xs[c] = (c - ncol) * h
     fingers = new_finger_arrays(np.int64(2), ny, nx)
-    for side in range(2):
-        for j in range(ny):
-            gather_row(shared.mode[0, j], fingers.mode[side, j], side, m_lo, step, ncol)
-            gather_row(shared.t1[0, j], fingers.t1[side, j], side, m_lo, step, ncol)
-            gather_row(shared.t2[0, j], fingers.t2[side, j], side, m_lo, step, ncol)
-            gather_row(shared.k1[0, j], fingers.k1[side, j], side, m_lo, step, ncol)
-            gather_row(shared.k2[0, j], fingers.k2[side, j], side, m_lo, step, ncol)
-            gather_row(shared.tip_overlap[0, j], fingers.tip_overlap[side, j], side, m_lo, step,
-                       ncol)
+    gather_field(shared.mode, fingers.mode, m_lo, step, ncol)
+    gather_field(shared.t1, fingers.t1, m_lo, step, ncol)
+    gather_field(shared.t2, fingers.t2, m_lo, step, ncol)
+    gather_field(shared.k1, fingers.k1, m_lo, step, ncol)
+    gather_field(shared.k2, fingers.k2, m_lo, step, ncol)
+    gather_field(shared.tip_overlap, fingers.tip_overlap, m_lo, step, ncol)
     return xs, fingers
 
 
 @inner
-def gather_row(src, dst, side, m_lo, step, ncol):
-    """One row of one finger field: world column c (i = c - ncol) of the right finger reads
-    offset i - step (a shift), of the left finger offset -i - step (a mirror)."""
-    if side == 1:
-        base = -ncol - step - m_lo
-        for c in range(dst.shape[0]):
-            dst[c] = src[base + c]
-    else:
-        base = ncol - step - m_lo
-        for c in range(dst.shape[0]):
-            dst[c] = src[base - c]
+def gather_field(src, dst, m_lo, step, ncol):
+    """One field of both fingers, row by row: world column c (i = c - ncol) of the right finger
+    (side 1) reads offset i - step (a shift), of the left finger offset -i - step (a mirror)."""
+    nx = dst.shape[2]
+    for side in range(2):
+        for j in range(dst.shape[1]):
+            if side == 1:
+                base = -ncol - step - m_lo
+                for c in range(nx):
+                    dst[side, j, c] = src[0, j, base + c]
+            else:
+                base = ncol - step - m_lo
+                for c in range(nx):
+                    dst[side, j, c] = src[0, j, base - c]
 
 
 @inner

@@ -32,7 +32,6 @@ from .meeting import (
     node_progress,
     path_end,
     paths_cross_at,
-    settled_angles,
     stop_fingers_at,
     stopped_finger,
     tip_path_collisions,
@@ -437,43 +436,45 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled, handled):
     starts_crossed, sym_node, sym_meeting = symmetric_meeting(finger, w, collision)
     if starts_crossed:  # the open fingers touch: no point's fingers are re-run (as reference)
         return 0
-    nx = fingers.mode.shape[2]
+    # the records' arrays and the cache's view taken once: a record field read or a slice inside
+    # the loop cost a reference-count pair per point (docs/performance.md)
+    mode, t1a, t2a = fingers.mode, fingers.t1, fingers.t2
+    memo, lk = settled.memo, settled.links
+    nx = mode.shape[2]
     meet = np.empty(nx)
     work = np.empty(WORK_SIZE)
     work[HINT] = 5
+    cache = work[SETTLED:SETTLED + 12]
     n_changed = 0
     for j in range(ys.shape[0]):
         for i in range(nx):
             meet[i] = -1.0
-            if fingers.mode[0, j, i] < 0 or fingers.mode[1, j, i] < 0:  # infeasible
+            if mode[0, j, i] < 0 or mode[1, j, i] < 0:  # infeasible
                 continue
             if any_handled and handled[j, i]:
                 continue
-            t1l, t2l, t1r, t2r = settled_angles(fingers, j, i)
+            t1l, t2l, t1r, t2r = t1a[0, j, i], t2a[0, j, i], t1a[1, j, i], t2a[1, j, i]
             m = nx - 1 - i
-            if m < i and fingers.mode[1, j, m] >= 0 and fingers.mode[0, j, m] >= 0 \
-                    and fingers.t1[1, j, m] == t1l and fingers.t2[1, j, m] == t2l \
-                    and fingers.t1[0, j, m] == t1r and fingers.t2[0, j, m] == t2r:
+            if m < i and mode[1, j, m] >= 0 and mode[0, j, m] >= 0 \
+                    and t1a[1, j, m] == t1l and t2a[1, j, m] == t2l \
+                    and t1a[0, j, m] == t1r and t2a[0, j, m] == t2r:
                 meet[i] = meet[m]  # the mirror point's fingers, swapped
-            elif i > 0 and fingers.mode[0, j, i - 1] >= 0 and fingers.mode[1, j, i - 1] >= 0 \
-                    and fingers.t1[0, j, i - 1] == t1l and fingers.t2[0, j, i - 1] == t2l \
-                    and fingers.t1[1, j, i - 1] == t1r and fingers.t2[1, j, i - 1] == t2r:
+            elif i > 0 and mode[0, j, i - 1] >= 0 and mode[1, j, i - 1] >= 0 \
+                    and t1a[0, j, i - 1] == t1l and t2a[0, j, i - 1] == t2l \
+                    and t1a[1, j, i - 1] == t1r and t2a[1, j, i - 1] == t2r:
                 meet[i] = meet[i - 1]  # the same fingers as the left neighbour
             else:
                 if settled.memo_read:
-                    memo = settled.memo
                     if memo[j, i, 0] == t1l and memo[j, i, 1] == t2l and memo[j, i, 2] == t1r \
                             and memo[j, i, 3] == t2r:
                         meet[i] = memo[j, i, 4]
                         continue
-                cache = work[SETTLED:SETTLED + 12]
                 for s in range(2):
                     t1 = t1l if s == 0 else t1r
                     t2 = t2l if s == 0 else t2r
                     if not settled.known:
                         l1c, l1s, l2c, l2s = link_vectors(t1, t2, finger.l1, finger.l2)
                     else:
-                        lk = settled.links
                         c = (settled.left_start + settled.left_stride * i if s == 0
                              else settled.right_start + settled.right_stride * i)
                         l1c, l1s, l2c, l2s = lk[0, j, c], lk[1, j, c], lk[2, j, c], lk[3, j, c]
@@ -483,7 +484,6 @@ def resolve_collisions(ys, finger, w, fingers, collision, settled, handled):
                                      fingers_cross(settled_polyline(LEFT, w, cache),
                                                    settled_polyline(RIGHT, w, cache)))
             if settled.memo_write:
-                memo = settled.memo
                 memo[j, i, 0] = t1l
                 memo[j, i, 1] = t2l
                 memo[j, i, 2] = t1r

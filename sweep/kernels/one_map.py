@@ -1,7 +1,7 @@
 """One map (`map_from_fingers`): finger fields -> per-point outcomes -> trajectories -> summary.
 
 The finger fields are filled by the caller (`finger_rows`, or gathered from a shared field by
-many_maps); the per-point outcomes (`outcome_row`: class, energy, equilibrium, caging geometry,
+many_maps); the per-point outcomes (`outcome_rows`: class, energy, equilibrium, caging geometry,
 forces) read one position's class and energy from outcome.py; the summary (`count_summary`)
 counts the trajectories' ends into the row schema.SUMMARY_FIELDS describes. The sweep and
 `sweep.compute.maps.compute_map` both go through `map_from_fingers`. The drivers release the GIL
@@ -162,10 +162,13 @@ def finger_statics_at(fingers, side, j, i, finger):
 
 
 @inner
-def outcome_row(j, xs, y, finger, hand, springs, tip_contact, fingers, outs, forces, scratch,
-                every_point, equilibrium, caging):
+def outcome_rows(xs, ys, finger, hand, springs, tip_contact, fingers, outs, forces, scratch,
+                 every_point, equilibrium, caging):
     """Class, energy, equilibrium, containment, opening, point score (and contact forces when
-    `forces` has room for them: records.with_forces) along row j.
+    `forces` has room for them: records.with_forces) at every point of the map. One call per
+    map, not per row: each call of a kernel whose arguments hold arrays costs a reference-count
+    pair per array (36 here), which per row was a tenth of the map's reference counting
+    (docs/performance.md).
 
     `equilibrium` False skips the part-equilibrium test and `caging` False the cage geometry
     (containment, L_open, crossing) at every point: those fields are left False / NaN / 0.
@@ -186,49 +189,51 @@ def outcome_row(j, xs, y, finger, hand, springs, tip_contact, fingers, outs, for
     finger_l = side_finger(finger, hand, LEFT)
     finger_r = side_finger(finger, hand, RIGHT)
     cones = friction_cones(finger.mu_s, hand.mu_left, hand.mu_right)
-    for i in range(xs.shape[0]):
-        x = xs[i]
-        ml = np.int64(mode[0, j, i])
-        mr = np.int64(mode[1, j, i])
-        c = classify_point(y, r, ml, mr)
-        point_class[j, i] = c
-        equilibrium_out[j, i] = False
-        contained[j, i] = False
-        crossed[j, i] = False
-        caged[j, i] = False
-        caging_score[j, i] = 0.0
-        if c == INFEASIBLE:
-            fill_infeasible(j, i, fingers, outs, forces, forces_on)
-            continue
-        if forces_on:
-            point_forces(j, i, finger_l, finger_r, fingers, forces)
-        t1l = t1[0, j, i]
-        t2l = t2[0, j, i]
-        t1r = t1[1, j, i]
-        t2r = t2[1, j, i]
-        energy[j, i] = point_energy(t1l, t2l, t1r, t2r, finger, hand, springs)
-        eq = False
-        if c == REACHED and equilibrium:
-            eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, t1l, t2l, mr, t1r,
-                                     t2r, finger.l1, finger.l2, tip_contact)
-            equilibrium_out[j, i] = eq
-        l_open[j, i] = np.nan
-        # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
-        wants_geometry = caging and (eq or every_point or (forces_on and c == REACHED))
-        if forces_on:
-            forces.geometric_cage_score[j, i] = 0.0
-        if not wants_geometry:
-            continue
-        inside, intersect, opening = cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand)
-        contained[j, i] = inside
-        l_open[j, i] = opening
-        crossed[j, i] = intersect
-        score = cage_score(inside, opening, r)
-        if forces_on and c == REACHED:
-            forces.geometric_cage_score[j, i] = score
-        if eq and score > 0.0:
-            caged[j, i] = True
-            caging_score[j, i] = score
+    for j in range(ys.shape[0]):
+        y = ys[j]
+        for i in range(xs.shape[0]):
+            x = xs[i]
+            ml = np.int64(mode[0, j, i])
+            mr = np.int64(mode[1, j, i])
+            c = classify_point(y, r, ml, mr)
+            point_class[j, i] = c
+            equilibrium_out[j, i] = False
+            contained[j, i] = False
+            crossed[j, i] = False
+            caged[j, i] = False
+            caging_score[j, i] = 0.0
+            if c == INFEASIBLE:
+                fill_infeasible(j, i, fingers, outs, forces, forces_on)
+                continue
+            if forces_on:
+                point_forces(j, i, finger_l, finger_r, fingers, forces)
+            t1l = t1[0, j, i]
+            t2l = t2[0, j, i]
+            t1r = t1[1, j, i]
+            t2r = t2[1, j, i]
+            energy[j, i] = point_energy(t1l, t2l, t1r, t2r, finger, hand, springs)
+            eq = False
+            if c == REACHED and equilibrium:
+                eq = part_in_equilibrium(scratch, x, y, hand.w, r, cones, ml, t1l, t2l, mr, t1r,
+                                         t2r, finger.l1, finger.l2, tip_contact)
+                equilibrium_out[j, i] = eq
+            l_open[j, i] = np.nan
+            # the manipulation metric needs S_geo wherever the part is reached (MODEL 10)
+            wants_geometry = caging and (eq or every_point or (forces_on and c == REACHED))
+            if forces_on:
+                forces.geometric_cage_score[j, i] = 0.0
+            if not wants_geometry:
+                continue
+            inside, intersect, opening = cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand)
+            contained[j, i] = inside
+            l_open[j, i] = opening
+            crossed[j, i] = intersect
+            score = cage_score(inside, opening, r)
+            if forces_on and c == REACHED:
+                forces.geometric_cage_score[j, i] = score
+            if eq and score > 0.0:
+                caged[j, i] = True
+                caging_score[j, i] = score
 
 
 @inner
@@ -320,9 +325,8 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
     n_collision_changed = collisions_of_map(xs, ys, finger, solver, effects, hand, fingers,
                                             settled)
     scratch = np.empty(SCRATCH_ANGLES)
-    for j in range(ys.shape[0]):
-        outcome_row(j, xs, ys[j], finger, hand, effects.joint_springs, effects.tip_contact,
-                    fingers, outs, forces, scratch, every_point, equilibrium, caging)
+    outcome_rows(xs, ys, finger, hand, effects.joint_springs, effects.tip_contact, fingers, outs,
+                 forces, scratch, every_point, equilibrium, caging)
     if not caging:
         outs.end_state[:, :] = END_NONE
         outs.end_index[:, :] = -1

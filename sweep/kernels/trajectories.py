@@ -116,16 +116,25 @@ def memo_for_slide(memo):
     once it is a quarter full, so that a slide finds room) a larger copy of it. Allocation
     happens here, between slides, and the capacity grows fourfold, up to MEMO_MAX_CAPACITY:
     amortised over the evaluations, which cost microseconds each."""
-    capacity = memo.keys.shape[0]
-    if capacity >= MEMO_MIN_CAPACITY and (4 * memo.fill[0] <= capacity
-                                          or capacity >= MEMO_MAX_CAPACITY):
+    if memo_has_room(memo):
         return memo
+    capacity = memo.keys.shape[0]
     bigger = new_memo(min(max(MEMO_MIN_CAPACITY, 4 * capacity), MEMO_MAX_CAPACITY), memo.mirror)
     for s in range(capacity):
         if memo.keys[s, 0] != EMPTY_KEY:
             memo_store(bigger, memo.keys[s, 0], memo.keys[s, 1], memo.values[s, 0],
                        memo.values[s, 1], memo.values[s, 2])
     return bigger
+
+
+@inner
+def memo_has_room(memo):
+    """Whether the next slide can use the memo as it is (memo_for_slide). A test of two numbers:
+    the caller replaces its memo only when this fails, since every replacement of a record of
+    arrays costs a reference-count pair per array (docs/performance.md)."""
+    capacity = memo.keys.shape[0]
+    return capacity >= MEMO_MIN_CAPACITY and (4 * memo.fill[0] <= capacity
+                                              or capacity >= MEMO_MAX_CAPACITY)
 
 
 @inner
@@ -345,26 +354,53 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
     point of P_j (REACHED points): grid8, or with `sliding` the sliding method (module
     docstring). `stack` is scratch of size >= number of points. Returns the map score Lambda
     (MODEL 8)."""
+    ny, nx = outs.energy.shape
+    size = ny * nx
+    # flat views, made once: `.flat[p]` made an iterator, a reference-count pair, per point
+    end_state = outs.end_state.reshape(size)
+    end_index = outs.end_index.reshape(size)
+    caging_score = outs.caging_score.reshape(size)
+    for p in range(size):
+        end_state[p] = END_NONE
+        end_index[p] = -1
+    memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown at the first slide
+    p0 = 0
+    while p0 < size:
+        # the trajectories run with one memo until a slide needs a larger one; the memo is
+        # replaced here, between calls, since replacing a record of arrays inside the loop cost
+        # a reference-count pair per array at every point (docs/performance.md)
+        p0 = trajectories_from(p0, outs, end_state, end_index, xs, ys, finger, solver, effects,
+                               hand, stack, sliding, memo)
+        if p0 < size:
+            memo = memo_for_slide(memo)
+    score_sum = 0.0
+    for p in range(size):
+        if end_state[p] == END_CAGED:
+            score_sum += caging_score[end_index[p]]
+    return score_sum
+
+
+@inner
+def trajectories_from(p_start, outs, end_state, end_index, xs, ys, finger, solver, effects, hand,
+                      stack, sliding, memo):
+    """trajectory_ends from flat point p_start on with this memo: fills end_state and end_index
+    (flat views of outs') and returns the number of points, or the point whose trajectory
+    stopped before a slide because the memo has no room (memo_has_room); nothing of that
+    trajectory is written, so the caller gives it a larger memo and starts there again (the
+    memo only caches outcomes: the trajectory is the same)."""
     energy = outs.energy
     point_class = outs.point_class
-    end_state = outs.end_state
-    end_index = outs.end_index
     equilibrium = outs.equilibrium
     caged = outs.caged
-    caging_score = outs.caging_score
     h = hand.h
     ny, nx = energy.shape
     size = ny * nx
-    for p in range(size):
-        end_state.flat[p] = END_NONE
-        end_index.flat[p] = -1
-    memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown at the first slide
     no_path = np.empty((0, 2))
     context = slide_context(finger, hand.w, effects.finger_collision)
-    for p0 in range(size):
+    for p0 in range(p_start, size):
         j0 = p0 // nx
         i0 = p0 - j0 * nx
-        if point_class[j0, i0] != REACHED or end_state.flat[p0] != END_NONE:
+        if point_class[j0, i0] != REACHED or end_state[p0] != END_NONE:
             continue
         depth = 0
         p = p0
@@ -377,9 +413,9 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                 state = END_EJECTION
                 last = p
                 break
-            if end_state.flat[p] != END_NONE:  # already resolved
-                state = end_state.flat[p]
-                last = end_index.flat[p]
+            if end_state[p] != END_NONE:  # already resolved
+                state = end_state[p]
+                last = end_index[p]
                 break
             stack[depth] = p
             depth += 1
@@ -393,7 +429,8 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                     state = END_STALLED
                     last = p
                     break
-                memo = memo_for_slide(memo)
+                if not memo_has_room(memo):
+                    return p0
                 q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
                                              finger, solver, effects, hand, no_path, memo,
                                              context)
@@ -403,10 +440,6 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
                     break
             p = q
         for s in range(depth):
-            end_state.flat[stack[s]] = state
-            end_index.flat[stack[s]] = last
-    score_sum = 0.0
-    for p in range(size):
-        if end_state.flat[p] == END_CAGED:
-            score_sum += caging_score.flat[end_index.flat[p]]
-    return score_sum
+            end_state[stack[s]] = state
+            end_index[stack[s]] = last
+    return size
