@@ -33,6 +33,7 @@ from .finger_geometry import (
     joint_strike_angle,
     proximal_tangency,
     rigid_distal_tangency,
+    rigid_sweep,
     rigid_tangency_slack,
     tangency_slack,
     tangent_length,
@@ -88,6 +89,24 @@ def closing_contact(dx, dy, finger, effects):
     """First contact of the closing sequence, as a FingerState whose mode is FREE,
     PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
     DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint)."""
+    return closing_contact_of(dx, dy, finger, closing_constants(finger), effects)
+
+
+@inner
+def closing_constants(finger):
+    """What the closing sweep of every point of a finger shares (MODEL 3.3, 4): r' and
+    l1 cos theta2_min (rigid_sweep), and the tip's polar radius and offset at theta2_min
+    (tip_polar). Computed once per finger, not per point: eight of the libm calls of a point's
+    rigid sweep, one an arctangent (docs/performance.md)."""
+    r_eff, l1_cos_min = rigid_sweep(finger.r, finger.l1, finger.theta2_min)
+    rho_t, delta_t = tip_polar(finger.theta2_min, finger.l1, finger.l2)
+    return r_eff, l1_cos_min, rho_t, delta_t
+
+
+@inner
+def closing_contact_of(dx, dy, finger, constants, effects):
+    """closing_contact with the finger's closing_constants given."""
+    r_eff, l1_cos_min, rho_t, delta_t = constants
     l1 = finger.l1
     l2 = finger.l2
     r = finger.r
@@ -115,10 +134,10 @@ def closing_contact(dx, dy, finger, effects):
     mode = FREE
     k1_out = 0.0
     k2_out = 0.0
-    t1c, k2c = rigid_distal_tangency(alpha, dx, dy, l1, r, theta2_min)
+    t1c, k2c = rigid_distal_tangency(alpha, dx, dy, theta2_min, r_eff, l1_cos_min)
     # validity within the closed form's own round-off (D30): a tangency rejected by round-off
     # let the finger sweep on with its distal link through the part
-    slack_k2, slack_t1 = rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2c)
+    slack_k2, slack_t1 = rigid_tangency_slack(dx, dy, l1, r_eff, l1_cos_min, k2c)
     if -slack_k2 <= k2c <= l2 + slack_k2 and rest - slack_t1 <= t1c <= math.pi + slack_t1:
         best_t1 = t1c
         mode = DISTAL_ON_LOWER_STOP
@@ -132,7 +151,6 @@ def closing_contact(dx, dy, finger, effects):
         mode = strike_mode(effects.tip_contact, JOINT_STRIKE)
         k1_out = l1
         k2_out = 0.0
-    rho_t, delta_t = tip_polar(theta2_min, l1, l2)
     t_t = vertex_entry_at(alpha, dx, dy, rho_t, delta_t, r)
     tie = slack_t1 if mode == DISTAL_ON_LOWER_STOP else RANGE_TOL
     if in_range(t_t, rest, math.pi) and t_t < best_t1 - tie:
@@ -321,7 +339,14 @@ def solve_finger(dx, dy, finger, solver, effects):
     """The finger's equilibrium configuration (FingerState); mode OVERLAP (-1) means the part
     overlaps the joint (infeasible point). tip_overlap is decided by the closing sequence.
     `effects` is an EffectBlocks record (records.NO_EFFECTS: the paper's model)."""
-    first = closing_contact(dx, dy, finger, effects)
+    return solve_finger_of(dx, dy, finger, closing_constants(finger), solver, effects)
+
+
+@inner
+def solve_finger_of(dx, dy, finger, constants, solver, effects):
+    """solve_finger with the finger's closing_constants given (a field of points computes them
+    once)."""
+    first = closing_contact_of(dx, dy, finger, constants, effects)
     final = settle(first, dx, dy, finger, solver, effects)
     return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 

@@ -69,6 +69,13 @@ def rigid_sweep_offset(r, l1, theta2_min):
 
 
 @inner
+def rigid_sweep(r, l1, theta2_min):
+    """A finger's constants of the rigid sweep (MODEL 3.3): (r' = rigid_sweep_offset,
+    l1 cos theta2_min), computed once per finger, not per point (docs/performance.md)."""
+    return rigid_sweep_offset(r, l1, theta2_min), l1 * math.cos(theta2_min)
+
+
+@inner
 def tangent_length_error(k, delta):
     """Round-off of a tangent length k = sqrt(D - r^2) whose D carries an absolute error
     delta: delta / (2 k), and sqrt(delta) once k^2 is below delta."""
@@ -76,17 +83,16 @@ def tangent_length_error(k, delta):
 
 
 @inner
-def rigid_tangency_slack(dx, dy, l1, r, theta2_min, k2):
+def rigid_tangency_slack(dx, dy, l1, r_eff, l1_cos_min, k2):
     """(slack of k2, slack of t1) of MODEL 3.3's tangency: RANGE_TOL plus their round-off.
     K = k2 + l1 cos(theta2_min) = sqrt(|d|^2 - r'^2) comes through asin(r'/|d|), which near 1
     leaves K known only to about sqrt(eps) |d| and the angle to about K's error / r'. With
     theta2_min near -90 deg a tangency at k2 = 0 (the distal link tangent at B as B grazes
     the disc) is exactly there, and RANGE_TOL alone let round-off reject it (model-notes
-    D30)."""
+    D30). r_eff = rigid_sweep_offset, l1_cos_min = l1 cos(theta2_min) (rigid_sweep)."""
     dist2 = dx * dx + dy * dy
-    r_eff = rigid_sweep_offset(r, l1, theta2_min)
     big = max(dist2, r_eff * r_eff)
-    dk = (tangent_length_error(max(k2 + l1 * math.cos(theta2_min), 0.0), 8.0 * EPS * big)
+    dk = (tangent_length_error(max(k2 + l1_cos_min, 0.0), 8.0 * EPS * big)
           + 4.0 * EPS * (math.sqrt(dist2) + l1))
     return RANGE_TOL + dk, RANGE_TOL + dk / r_eff + 8.0 * EPS
 
@@ -134,20 +140,19 @@ def distal_tangency(dx, dy, t1, l1, r):
 
 
 @inner
-def rigid_distal_tangency(alpha, dx, dy, l1, r, theta2_min):
+def rigid_distal_tangency(alpha, dx, dy, theta2_min, r_eff, l1_cos_min):
     """MODEL 3.3: (t1, k2) of the distal link (held at theta2_min) tangent during the rigid sweep;
-    alpha = atan2(dy, dx) (proximal_tangency).
+    alpha = atan2(dy, dx) (proximal_tangency), r_eff and l1_cos_min the finger's (rigid_sweep).
 
     Returns (inf, -1) if the distal line never reaches the part.
     """
-    r_eff = rigid_sweep_offset(r, l1, theta2_min)
     dist2 = dx * dx + dy * dy
     if dist2 < r_eff * r_eff * (1.0 - TOUCH_REL):
         return NO_ANGLE, -1.0
     dist = math.sqrt(dist2)
     offset = math.asin(min(r_eff / dist, 1.0))  # alpha - phi
     phi = alpha - offset
-    k2 = dist * math.cos(offset) - l1 * math.cos(theta2_min)
+    k2 = dist * math.cos(offset) - l1_cos_min
     return phi - theta2_min, k2
 
 

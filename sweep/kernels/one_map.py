@@ -30,7 +30,7 @@ from .jit import entry, inner
 from .records import FingerState, LEFT, RIGHT, side_finger, with_forces
 from .streamline import streamline_ends
 from .finger_statics import finger_statics
-from .finger import solve_finger
+from .finger import closing_constants, solve_finger_of
 from .hand import (
     finger_polyline,
     fingers_cross,
@@ -88,10 +88,11 @@ def finger_rows(first, last, dxs, dys, finger, solver, effects, fingers, side):
     """Solve one finger at every column offset dxs[i] of rows first .. last - 1 of the grid
     dys x dxs (finger-frame offsets: part centre at (dxs[i], dys[j])) into fingers[side].
     Without the GIL: `sweep.compute.threads` runs blocks of rows on several threads."""
+    constants = closing_constants(finger)
     for j in range(first, last):
         dy = dys[j]
         for i in range(dxs.shape[0]):
-            s = solve_finger(dxs[i], dy, finger, solver, effects)
+            s = solve_finger_of(dxs[i], dy, finger, constants, solver, effects)
             fingers.mode[side, j, i] = s.mode
             fingers.t1[side, j, i] = s.t1
             fingers.t2[side, j, i] = s.t2
