@@ -16,7 +16,6 @@ the cache's index: tests/test_compile_cold.py). It then leaves a marker in the c
 next start only loads (about a second).
 
     python -m sweep.compute.warm [maps|summaries]     # what `ensure_compiled` runs
-    python -m sweep.compute.warm ensure               # ensure_compiled (`make run`)
 """
 from __future__ import annotations
 
@@ -149,9 +148,6 @@ def ensure_compiled(say=None) -> None:
 
 
 def main(argv: list[str]) -> int:
-    if argv == ["ensure"]:  # what a command does first (`make run` before its two scenes)
-        ensure_compiled()
-        return 0
     for name in argv or ["maps", "summaries"]:
         {"maps": compile_maps, "summaries": compile_summaries}[name]()
     return 0
