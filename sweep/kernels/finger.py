@@ -368,7 +368,7 @@ def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
     the contact first slid along the distal link, that edge path's end (the contact at the tip)."""
     if not took_tip_path(mode, effects.tip_contact):
         return False, t1, t2, 0.0
-    first = closing_contact(dx, dy, finger, effects)
+    first = closing_contact_of(dx, dy, finger, closing_constants(finger), effects)
     if first.t1 == t1 and first.t2 == t2:  # a strike that held
         return False, t1, t2, 0.0
     if first.mode == TIP_ON_LOWER_STOP or first.mode == TIP_ON_PROXIMAL_STOP:

@@ -19,7 +19,7 @@ from ..model import (
 from .jit import entry, inner
 from .records import LEFT, RIGHT, side_finger
 from .finger_statics import finger_energy, spring_energy
-from .finger import finger_effects, OVERLAP, solve_finger, took_tip_path
+from .finger import closing_constants, finger_effects, OVERLAP, solve_finger_of, took_tip_path
 from .meeting import collide_on_own_paths
 from .meeting_search import collide, collide_near, meeting_state, no_slide_context
 
@@ -72,10 +72,13 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     no springs), and the meeting is not searched. `context`: hand.slide_context (the
     meeting found as on the grid) or meeting_search.no_slide_context() (meeting_search.collide)."""
     w = hand.w
-    sl = solve_finger(-x - 0.5 * w, y, side_finger(finger, hand, LEFT), solver,
-                      finger_effects(effects, hand.f_left))
-    sr = solve_finger(x - 0.5 * w, y, side_finger(finger, hand, RIGHT), solver,
-                      finger_effects(effects, hand.f_right))
+    # (solve_finger's own body: the entry point would compile the finger's whole tree again)
+    left = side_finger(finger, hand, LEFT)
+    right = side_finger(finger, hand, RIGHT)
+    sl = solve_finger_of(-x - 0.5 * w, y, left, closing_constants(left), solver,
+                         finger_effects(effects, hand.f_left))
+    sr = solve_finger_of(x - 0.5 * w, y, right, closing_constants(right), solver,
+                         finger_effects(effects, hand.f_right))
     collision = effects.finger_collision
     if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
