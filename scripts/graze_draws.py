@@ -61,7 +61,7 @@ def closing(strike, dx, dy, l1, l2, r, th2min):
     finger.joint_strike_angle = strike
     try:
         model = FingerModel(l1, l2, 1.0, 1.0, r, 0.0, th2min, math.radians(90.0))
-        return finger.closing_contact(dx, dy, model, NO_EFFECTS)
+        return finger.closing_contact(dx, dy, model, finger.closing_constants(model), NO_EFFECTS)
     finally:
         finger.joint_strike_angle = UNMUTATED
 

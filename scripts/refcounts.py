@@ -6,8 +6,9 @@ kernel makes them: every call counted, not sampled (docs/performance.md, 2026-11
 A worker process compiles the kernels in a private empty cache (so that each function's address
 is known: a cached kernel is loaded as object code), then waits; gdb attaches to it with a
 breakpoint on NRT_incref and NRT_decref that records the return address and goes on; the worker
-runs the paper-sweep sample (`--cells` cells of the paper's table x its 6 widths, summaries, one
-thread) and exits; each call is then charged to the kernel whose code holds its return address.
+runs the paper-sweep sample (the first `--cells` of profile_kernels' 64 cells of the paper's
+table x its 6 widths, summaries, one thread) and exits; each call is then charged to the kernel
+whose code holds its return address.
 An array handed to a kernel that can fail (any call Numba does not inline) keeps a reference
 count pair, and a record of arrays (a tuple) one pair per array: the table says where. Needs gdb;
 about two minutes (the compilation), then a few seconds per thousand calls counted.
@@ -63,7 +64,7 @@ def worker(args, folder: Path) -> int:
     from sweep.model import Accuracy, Command, Effects, Limits
 
     numba.set_num_threads(1)
-    cells, widths = paper_sample(args.cells), paper_widths()
+    cells, widths = paper_sample(64)[:args.cells], paper_widths()   # profile_kernels' sample
     effects = Effects(finger_collision=args.collision)
     accuracy = Accuracy(reconfig_step=0.05)   # the paper configs' step
 
@@ -95,7 +96,7 @@ def kernel_name(symbol: str) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--cells", type=int, default=8, help="paper cells in the sample [8]")
+    parser.add_argument("--cells", type=int, default=8, help="cells of the sample (at most 64) [8]")
     parser.add_argument("--collision", action="store_true", help="with finger_collision")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()

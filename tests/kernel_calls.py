@@ -1,7 +1,7 @@
 """Positional shorthands for the kernels' record-taking functions, for tests written by hand."""
 from __future__ import annotations
 
-from sweep.kernels.finger import closing_contact, reconfigure, solve_finger
+from sweep.kernels.finger import closing_constants, closing_contact, reconfigure, solve_finger
 from sweep.kernels.records import NO_EFFECTS, FingerModel, SolverSettings
 from sweep.model import STREAMLINE_STEP, TRAJECTORY_SLIDING
 
@@ -25,9 +25,8 @@ def solve(dx, dy, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, root_to
 
 def closing(dx, dy, l1, l2, r, theta2_min, theta2_max):
     """closing_contact (geometry only) -> (mode, t1, t2, k1, k2, tip_overlap)."""
-    return closing_contact(float(dx), float(dy),
-                           finger_model(l1, l2, 1.0, 1.0, r, 0.0, theta2_min, theta2_max),
-                           NO_EFFECTS)
+    finger = finger_model(l1, l2, 1.0, 1.0, r, 0.0, theta2_min, theta2_max)
+    return closing_contact(float(dx), float(dy), finger, closing_constants(finger), NO_EFFECTS)
 
 
 def reconfig(dx, dy, t1, l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max, step, root_tol):

@@ -85,14 +85,6 @@ PROXIMAL_THEN_TIP = np.int64(21)       # T strikes as the distal closes after a 
 # Closing sequence (MODEL 4): geometry only
 # ---------------------------------------------------------------------------------------------
 @entry
-def closing_contact(dx, dy, finger, effects):
-    """First contact of the closing sequence, as a FingerState whose mode is FREE,
-    PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
-    DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint)."""
-    return closing_contact_of(dx, dy, finger, closing_constants(finger), effects)
-
-
-@inner
 def closing_constants(finger):
     """What the closing sweep of every point of a finger shares (MODEL 3.3, 4): r' and
     l1 cos theta2_min (rigid_sweep), and the tip's polar radius and offset at theta2_min
@@ -103,9 +95,12 @@ def closing_constants(finger):
     return r_eff, l1_cos_min, rho_t, delta_t
 
 
-@inner
-def closing_contact_of(dx, dy, finger, constants, effects):
-    """closing_contact with the finger's closing_constants given."""
+@entry
+def closing_contact(dx, dy, finger, constants, effects):
+    """First contact of the closing sequence, as a FingerState whose mode is FREE,
+    PROXIMAL_ONLY, TWO_PHALANX (not yet checked for stick-slip), VERTEX, DISTAL_ON_LOWER_STOP,
+    DISTAL_ON_PROXIMAL_STOP, or OVERLAP (part overlaps the joint). `constants`: the finger's
+    closing_constants (a field of points computes them once)."""
     r_eff, l1_cos_min, rho_t, delta_t = constants
     l1 = finger.l1
     l2 = finger.l2
@@ -346,7 +341,7 @@ def solve_finger(dx, dy, finger, solver, effects):
 def solve_finger_of(dx, dy, finger, constants, solver, effects):
     """solve_finger with the finger's closing_constants given (a field of points computes them
     once)."""
-    first = closing_contact_of(dx, dy, finger, constants, effects)
+    first = closing_contact(dx, dy, finger, constants, effects)
     final = settle(first, dx, dy, finger, solver, effects)
     return FingerState(final.mode, final.t1, final.t2, final.k1, final.k2, first.tip_overlap)
 
@@ -368,7 +363,7 @@ def tip_path_start(dx, dy, mode, t1, t2, finger, solver, effects):
     the contact first slid along the distal link, that edge path's end (the contact at the tip)."""
     if not took_tip_path(mode, effects.tip_contact):
         return False, t1, t2, 0.0
-    first = closing_contact_of(dx, dy, finger, closing_constants(finger), effects)
+    first = closing_contact(dx, dy, finger, closing_constants(finger), effects)
     if first.t1 == t1 and first.t2 == t2:  # a strike that held
         return False, t1, t2, 0.0
     if first.mode == TIP_ON_LOWER_STOP or first.mode == TIP_ON_PROXIMAL_STOP:
