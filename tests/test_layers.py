@@ -214,12 +214,14 @@ ROOT = PACKAGE.parent
 
 
 def inner_kernels(kernels: Path = PACKAGE / "kernels") -> set[tuple[str, str]]:
-    """(module, function) of every kernel decorated `@inner`."""
+    """(module, function) of every kernel decorated `@inner` or `@inner(...)`."""
+    def is_inner(d):
+        d = d.func if isinstance(d, ast.Call) else d
+        return isinstance(d, ast.Name) and d.id == "inner"
     found = set()
     for path in kernels.glob("*.py"):
         for node in ast.parse(path.read_text()).body:
-            if isinstance(node, ast.FunctionDef) and any(
-                    isinstance(d, ast.Name) and d.id == "inner" for d in node.decorator_list):
+            if isinstance(node, ast.FunctionDef) and any(map(is_inner, node.decorator_list)):
                 found.add((path.stem, node.name))
     return found
 
@@ -287,9 +289,13 @@ def test_the_checker_catches_an_inner_kernel_used_outside(tmp_path):
     kernels = tmp_path / "sweep" / "kernels"
     kernels.mkdir(parents=True)
     (kernels / "field.py").write_text("@inner\ndef f():\n    pass\n\n@entry\ndef g():\n"
+                                      "    pass\n\n@inner(inline='always')\ndef h():\n"
                                       "    pass\n")
     (tmp_path / "sweep" / "maps.py").write_text("from .kernels.field import g\n")
     assert inner_kernels_used_outside(tmp_path) == []
+    (tmp_path / "sweep" / "maps.py").write_text("from .kernels.field import h\nh()\n")
+    assert inner_kernels_used_outside(tmp_path) == ["sweep/maps.py uses the inner kernel field.h"]
+    (tmp_path / "sweep" / "maps.py").write_text("from .kernels.field import g\n")
     (tmp_path / "tests").mkdir()
     (tmp_path / "tests" / "t.py").write_text("from sweep.kernels import field as k\nk.f()\n")
     assert inner_kernels_used_outside(tmp_path) == ["tests/t.py uses the inner kernel field.f"]

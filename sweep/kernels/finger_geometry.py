@@ -163,8 +163,6 @@ def vertex_entry(dx, dy, rho, delta, r):
     The vertex turns counter-clockwise about the origin of (dx, dy). Returns inf if it never does,
     or only grazes the disc (model-notes D3).
     """
-    if not enters_disc(entry_cosine(dx, dy, rho, r)):
-        return NO_ANGLE
     return vertex_entry_at(math.atan2(dy, dx), dx, dy, rho, delta, r)
 
 

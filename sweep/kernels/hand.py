@@ -111,7 +111,7 @@ def origin_in_cone_hull(angles, n):
     return largest_gap <= math.pi + GAP_TOL
 
 
-@inner
+@entry
 def angle_in_turn(a):
     """a % (2 pi), Python's float modulo (in [0, 2 pi)), the same bits without a call to fmod
     for the angles the cone hull meets, within one turn of [0, 2 pi): there fmod(a, 2 pi) is a
