@@ -129,6 +129,10 @@ def test_merged_store_is_the_one_machine_store_whatever_the_batch_sizes(runs, mo
     monkeypatch.setattr(manip, "POSE_BATCH", 5)
     merge_shards(root / "run", root / "small-batches.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "small-batches.h5") == []
+    # and the shards' files opened two at a time for each range, not held open for the part
+    monkeypatch.setattr(store, "OPEN_BLOCKS", 2)
+    merge_shards(root / "run", root / "few-open.h5", overwrite=True)
+    assert store_differences(root / "whole.h5", root / "few-open.h5") == []
 
 
 def assert_manipulation_of(path, scene, chunks):

@@ -362,6 +362,17 @@ def fold_part(merged: dict | None, reds: dict) -> dict:
     return {name: merged[name].merge(reds[name]) for name in REDUCTIONS}
 
 
+def merge_parts(reds: list) -> dict:
+    """One part's reductions from several chunks (each as `read_part` gives them; None: the
+    chunk has none of the part) merged in one pass: `fold_part` over them in any order gives
+    the same states (a pose's state is a function of its candidate set), with each pose
+    rebuilt once instead of once per chunk."""
+    reds = [r for r in reds if r is not None]
+    if len(reds) == 1:
+        return dict(reds[0])
+    return {name: PartReduction.merge_all([r[name] for r in reds]) for name in REDUCTIONS}
+
+
 def part_keys(group) -> list[tuple[int, int]]:
     """The parts (r index, mu index) whose reductions a chunk's group (`write`) holds, sorted."""
     keys = []
@@ -372,39 +383,54 @@ def part_keys(group) -> list[tuple[int, int]]:
     return sorted(keys)
 
 
+class PartSource:
+    """One part's reductions in a chunk's group (`write`), open for reading ranges of its poses:
+    the datasets are looked up and the pose index read once (a merge reads every chunk's part a
+    range of poses at a time, and h5py's lookups cost as much as the reads)."""
+
+    def __init__(self, group, key: tuple[int, int]):
+        name = f"part_{key[0]}_{key[1]}"
+        self.present = name in group
+        self.reductions = {}
+        if self.present:
+            for red in REDUCTIONS:
+                g = group[name][red]
+                self.reductions[red] = (g["pose_ids"][...], g["offsets"][...], g["n_hull"],
+                                        g["rows"], g["first"])
+
+    def read(self, poses: tuple[int, int] | None = None) -> dict | None:
+        """The reductions of the part's poses whose lattice index lies in [poses[0], poses[1])
+        (all if None; only their rows are read); None if the chunk has none of the part."""
+        if not self.present:
+            return None
+        out = {}
+        for red, (ids, offsets, n_hull, rows, first) in self.reductions.items():
+            if poses is None:
+                out[red] = PartReduction.from_arrays(dict(
+                    pose_ids=ids, offsets=offsets, n_hull=n_hull[...], rows=rows[...],
+                    first=first[...]))
+                continue
+            p0, p1 = np.searchsorted(ids, poses)
+            a, b = offsets[p0], offsets[p1]
+            out[red] = PartReduction.from_arrays(dict(
+                pose_ids=ids[p0:p1], offsets=offsets[p0:p1 + 1] - a, n_hull=n_hull[p0:p1],
+                rows=rows[a:b], first=first[a:b]))
+        return out
+
+    def rows_per_pose(self, n_poses: int) -> np.ndarray:
+        """Per pose of the part's lattice (flat index < n_poses), its kept points, both
+        reductions together (zeros if the chunk has none of the part)."""
+        out = np.zeros(n_poses, dtype=np.int64)
+        for ids, offsets, *_ in self.reductions.values():
+            out += np.bincount(ids, weights=np.diff(offsets), minlength=n_poses).astype(np.int64)
+        return out
+
+
 def read_part(group, key: tuple[int, int], poses: tuple[int, int] | None = None) -> dict | None:
     """The reductions of one part from a chunk's group (`write`), of its poses whose lattice
     index lies in [poses[0], poses[1]) if given (only their rows are read); None if the group
     has no reductions of that part."""
-    name = f"part_{key[0]}_{key[1]}"
-    if name not in group:
-        return None
-    out = {}
-    for red in REDUCTIONS:
-        g = group[name][red]
-        if poses is None:
-            out[red] = PartReduction.from_arrays({k: g[k][...] for k in g})
-            continue
-        ids, offsets = g["pose_ids"][...], g["offsets"][...]
-        p0, p1 = np.searchsorted(ids, poses)
-        a, b = offsets[p0], offsets[p1]
-        out[red] = PartReduction.from_arrays(dict(
-            pose_ids=ids[p0:p1], offsets=offsets[p0:p1 + 1] - a, n_hull=g["n_hull"][p0:p1],
-            rows=g["rows"][a:b], first=g["first"][a:b]))
-    return out
-
-
-def part_rows(group, key: tuple[int, int], n_poses: int) -> np.ndarray:
-    """Per pose of a part's lattice (flat index < n_poses), the kept points that a chunk's group
-    (`write`) holds for it, both reductions together (zeros if it has none of that part)."""
-    name = f"part_{key[0]}_{key[1]}"
-    out = np.zeros(n_poses, dtype=np.int64)
-    if name in group:
-        for red in REDUCTIONS:
-            g = group[name][red]
-            out += np.bincount(g["pose_ids"][...], weights=np.diff(g["offsets"][...]),
-                               minlength=n_poses).astype(np.int64)
-    return out
+    return PartSource(group, key).read(poses)
 
 
 def pose_cuts(rows: np.ndarray, budget: int) -> list[tuple[int, int]]:

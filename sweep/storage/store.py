@@ -38,8 +38,8 @@ from .h5 import (CorruptFile, StoreError,  # noqa: F401 (the errors of the store
                  FILL_CACHE_BYTES, atomic_amend, atomic_file, create_variable, file_differences,
                  iter_names,
                  provenance, read_json_attr, set_root_attrs, write_coordinate, write_variable)
-from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChunk, fold_part,
-                                    part_keys, part_rows, pose_cuts, read_part, usage_of)
+from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChunk, PartSource,
+                                    merge_parts, part_keys, pose_cuts, usage_of)
 from ..config.scene import GROUP_AXES, ITEM_ORDER, REDUCTION_ROW_BYTES, STORE_DIMS, Scene
 from ..model import DEFAULT_OUTPUTS
 from ..schema import (
@@ -555,10 +555,10 @@ def part_arrays(scene: Scene, item_files: Sequence[ItemFile]) -> dict[str, np.nd
     (blocks that tile every item, in item order).
 
     One part and one range of its poses at a time (`MERGE_ROWS`): a pose's hull depends only on
-    its own points, so each range is folded over the blocks as `ManipulationChunk.merge_stream`
-    folds the whole part (every block holding the part, in item order: the same merges of every
-    pose, so the same hulls bit for bit), and the per-pose values are joined in pose order
-    before they are summed."""
+    its own points, so each range is merged over the blocks holding the part in one pass (the
+    states `ManipulationChunk.merge_stream` folds, bit for bit: a state is a function of its
+    candidate set), and the per-pose values are joined in pose order before they are
+    summed."""
     n_r, n_mu = len(scene.values["r"]), len(scene.values["mu"])
     n_cols = scene.lattice_columns()
     n_max, m = int(n_cols.max()), scene.lattice_rows()
@@ -595,20 +595,46 @@ def part_arrays(scene: Scene, item_files: Sequence[ItemFile]) -> dict[str, np.nd
                 manipulation_b_pose_value=pose_value)
 
 
+#: Block files held open at once while a part's poses are merged: far below the usual limit of
+#: 1,024 open files (a cluster merge may have thousands of shards, each holding every part).
+OPEN_BLOCKS = 64
+
+
+@contextlib.contextmanager
+def _part_sources(blocks: Sequence[ItemFile], key: tuple[int, int]):
+    """The reductions of part `key` in each of `blocks`, their files open meanwhile."""
+    with contextlib.ExitStack() as files:
+        yield [PartSource(files.enter_context(_manipulation_group(block.path)), key)
+               for block in blocks]
+
+
 def _merged_by_poses(held_by: Sequence[ItemFile], key: tuple[int, int], n_poses: int):
     """The reductions of part `key` (of a lattice of `n_poses` poses) merged over the blocks
     holding it, one range of poses after another, each range's points from every block adding
-    up to at most MERGE_ROWS (or one pose)."""
-    rows = np.zeros(n_poses, dtype=np.int64)
-    for block in held_by:
-        with _manipulation_group(block.path) as g:
-            rows += part_rows(g, key, n_poses)
-    for poses in pose_cuts(rows, MERGE_ROWS):
-        merged = None
-        for block in held_by:
-            with _manipulation_group(block.path) as g:
-                merged = fold_part(merged, read_part(g, key, poses))
-        yield merged
+    up to at most MERGE_ROWS (or one pose). A range is merged in one pass over every block's
+    points (a pose's state is a function of its candidate set, kernels/hull.py: the streamed
+    fold's hulls bit for bit, without rebuilding each pose once per block). The blocks' files
+    stay open while the part is merged (opening one and looking up its datasets costs more than
+    reading a range), unless there are more than OPEN_BLOCKS: then a range opens them
+    OPEN_BLOCKS at a time."""
+    batches = [held_by[i:i + OPEN_BLOCKS] for i in range(0, len(held_by), OPEN_BLOCKS)]
+    with contextlib.ExitStack() as kept:
+        held = kept.enter_context(_part_sources(held_by, key)) if len(batches) == 1 else None
+
+        def over_blocks(work) -> list:
+            if held is not None:
+                return [work(source) for source in held]
+            out = []
+            for batch in batches:
+                with _part_sources(batch, key) as sources:
+                    out += [work(source) for source in sources]
+            return out
+
+        rows = np.zeros(n_poses, dtype=np.int64)
+        for per_pose in over_blocks(lambda source: source.rows_per_pose(n_poses)):
+            rows += per_pose
+        for poses in pose_cuts(rows, MERGE_ROWS):
+            yield merge_parts(over_blocks(lambda source, poses=poses: source.read(poses)))
 
 
 def write_bytes(scene: Scene, block_items: int) -> int:
