@@ -2,7 +2,10 @@
 PYTHON ?= python3
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
-STAMP  := $(VENV)/.installed
+# What the commands need (`make run` and the other jobs), and that plus the test extras (pytest,
+# hypothesis, ruff, pytest-xdist: the tests, lint, benchmarks); one environment, one stamp each.
+RUN_STAMP := $(VENV)/.installed-run
+STAMP     := $(VENV)/.installed
 
 .PHONY: install run friction optimize map test test-long lint test-slurm bench paper clean
 
@@ -10,12 +13,19 @@ STAMP  := $(VENV)/.installed
 # own tests); compileall on every core, without those tests, takes a third of that
 # (docs/performance.md). Compiled, not left to the first import: with PYTHONDONTWRITEBYTECODE
 # set, every start would compile numpy, numba and scipy again (1.4 s against 4.5 s).
-$(STAMP): pyproject.toml
+define install_into_venv
 	$(PYTHON) -m venv $(VENV)
-	$(PY) -m pip install --quiet --no-compile -e '.[test]'
+	$(PY) -m pip install --quiet --no-compile -e '$(1)'
 	$(PY) -m compileall -q -j 0 -x '/tests?/' \
 		"$$($(PY) -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')" > /dev/null
-	touch $(STAMP)
+	touch $@
+endef
+
+$(RUN_STAMP): pyproject.toml
+	$(call install_into_venv,.)
+
+$(STAMP): pyproject.toml
+	$(call install_into_venv,.[test])
 
 install: $(STAMP)
 
@@ -25,7 +35,7 @@ install: $(STAMP)
 # side (figures, tables, report.md; a no-op when up to date). One scene after the other: side
 # by side, each on every core, the whole job took 0.75x de6810f's time on a fresh clone
 # against 0.63x one after the other (docs/performance.md, 2026-11-27 night).
-run: $(STAMP)
+run: $(RUN_STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
 	$(VENV)/bin/sweep run configs/paper-collision.yaml --out results/paper-collision.h5
 	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
@@ -34,7 +44,7 @@ run: $(STAMP)
 # the two scenes of `make run` with `outputs.scenario_c` (each finger on the part's mu or on a
 # low friction), then one report of both (friction.png, caging under modulation). Its own
 # target: Scenario C costs 1.2-1.3x the manipulation sweep (docs/performance.md).
-friction: $(STAMP)
+friction: $(RUN_STAMP)
 	$(VENV)/bin/sweep run configs/paper-friction.yaml --out results/paper-friction.h5
 	$(VENV)/bin/sweep run configs/paper-collision-friction.yaml \
 		--out results/paper-collision-friction.h5
@@ -47,12 +57,12 @@ friction: $(STAMP)
 # optimum); from the store `make run` wrote, into results/paper-collision.optimize.h5 (resumes if
 # killed, a no-op when done); then `make run`'s two-scene report again, now with the section and
 # figure of the optimised scene (optimization_2.png; redone only when the results changed).
-optimize: $(STAMP)
+optimize: $(RUN_STAMP)
 	$(VENV)/bin/sweep optimize results/paper-collision.h5 --parts all --objective worst
 	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
 
 # One energy map of the issue's reference design, with its plot.
-map: $(STAMP)
+map: $(RUN_STAMP)
 	$(VENV)/bin/sweep map --l1 2.0 --l2 1.6 --r1 0.2 --r2 0.14 --w 0.8 --r 0.4 --mu 0.4 \
 		--out results/map.h5 --plot results/map.png --overwrite
 
@@ -92,7 +102,7 @@ bench: $(STAMP)
 	$(PY) scripts/bench.py $(ARGS)
 
 # The paper's whole design-space search: 86,400 maps (a few minutes on 2 cores); resumes if killed.
-paper: $(STAMP)
+paper: $(RUN_STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
 	$(VENV)/bin/sweep show results/paper.h5
 

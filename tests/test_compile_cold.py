@@ -3,7 +3,8 @@
 In a new, empty kernel cache: both kernel sets of compute/warm.py compile each kernel once, with
 one signature (a second signature would compile the kernel and everything below it again, and
 two processes compiling different signatures of one kernel could spoil the cache's index:
-docs/architecture.md, "One compilation for every scene"; `gather_row` copies three dtypes).
+docs/architecture.md, "One compilation for every scene"; `gather_field` copies three
+dtypes): counted as the dispatchers record them and as the cache holds them.
 In another: `ensure_compiled` (the two sets in two processes), then `make run`'s commands (both
 scenes with the refinement, and the report) on a small config compile nothing more: no cache
 file is added."""
@@ -56,6 +57,17 @@ def test_every_kernel_compiles_with_one_signature(tmp_path):
     several = {name: n for name, n in counts.items() if n > SEVERAL.get(name.split(".")[1], 1)}
     assert not several, f"kernels compiled with several signatures: {several}"
     assert sum(counts.values()) > 100   # (the compilation ran here, not from a cache)
+    # what was compiled, as the cache holds it: one file per signature, named
+    # module.kernel-LINE.pyXY.K.nbc. A kernel called from kernels only has its signatures
+    # recorded here: a call with a literal argument (`n = 0; n = f(n)`) compiled such a kernel,
+    # and everything it calls, once more for Literal[int](0), unseen by `.signatures`
+    per_kernel: dict = {}
+    for path in (tmp_path / "cache").rglob("*.nbc"):
+        kernel = path.name.split("-")[0]
+        per_kernel[kernel] = per_kernel.get(kernel, 0) + 1
+    several = {k: n for k, n in per_kernel.items() if n > SEVERAL.get(k.split(".")[-1], 1)}
+    assert not several, f"kernels compiled with several signatures: {several}"
+    assert len(per_kernel) > 100
 
 
 def test_one_compilation_serves_make_run(tmp_path):

@@ -5,6 +5,8 @@ mouth's opening (`mouth_opening`, L_open of MODEL 8).
 """
 import math
 
+import numpy as np
+
 from ..model import (
     DISTAL_ONLY,
     GAP_TOL,
@@ -164,7 +166,7 @@ def part_in_equilibrium(angles, x, y, w, r, cones, mode_l, t1_l, t2_l, mode_r, t
     `angles` is scratch space of length >= 10. Fewer than two contacts: no equilibrium.
     """
     cone_palm, cone_l, cone_r = cones
-    n = 0
+    n = np.int64(0)   # (a literal 0 would compile add_contact a second time, for Literal[int](0))
     count, first, second = finger_contact_normals(LEFT, mode_l, t1_l, t2_l)
     if count > 0:
         n = add_contact(angles, n, first, cone_l)

@@ -364,7 +364,7 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
         end_state[p] = END_NONE
         end_index[p] = -1
     memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown at the first slide
-    p0 = 0
+    p0 = np.int64(0)  # (a literal 0 compiled trajectories_from a second time, for Literal[int](0))
     while p0 < size:
         # the trajectories run with one memo until a slide needs a larger one; the memo is
         # replaced here, between calls, since replacing a record of arrays inside the loop cost
