@@ -151,3 +151,41 @@ def test_stores_of_other_designs_parts_or_grid_are_refused(made, tmp_path, what,
     assert not (tmp_path / "rep").exists()
     res = invoke("report", stores[0], stores[1], other, "--out", tmp_path / "rep")
     assert res.exit_code == 2 and "two to compare" in res.output
+
+
+# The best designs' figure is rendered by a forked child (style.BackgroundPng). The test workers
+# run threads (pytest-xdist), so there it renders in-process: a fresh single-threaded Python
+# checks the child's bytes against the in-process rendering, and that a thread forbids the fork.
+BACKGROUND_PNG = r"""
+import threading, time
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from sweep.report.style import BackgroundPng, png
+fig = Figure(figsize=(4, 3), dpi=80, layout="constrained")
+FigureCanvasAgg(fig)
+ax = fig.subplots()
+ax.imshow([[0.0, 1.0], [2.0, 3.0]])
+ax.set_title("a map")
+forked = BackgroundPng(fig)
+assert forked.pid is not None, "no child"
+assert forked.result() == png(fig)
+stop = threading.Event()
+other = threading.Thread(target=stop.wait)
+other.start()
+here = BackgroundPng(fig)
+stop.set()
+other.join()
+assert here.pid is None, "forked while another thread ran"
+assert here.result() == png(fig)
+print("ok")
+"""
+
+
+def test_the_forked_rendering_is_the_in_process_one():
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", BACKGROUND_PNG], capture_output=True, text=True,
+                         cwd=Path(__file__).resolve().parents[1])
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"

@@ -42,7 +42,7 @@ from .manipulation import candidate_rows, manipulation_rows
 from .stores import open_pair
 from .tip import caging_tip_parts, representative_rows
 from .usage import usage_rows
-from .style import png
+from .style import BackgroundPng, png
 
 FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs_tip.csv",
          "representative_designs.csv", "manipulation.png", "manipulation.csv",
@@ -244,6 +244,8 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
     st1, st2, top_k = pair or open_pair(store_1, store_2, top_k)
     rep = make_tables(st1, st2, top_k, log)
     write, finish = report_files(Path(out_dir), comparison_identity(st1, st2, top_k), rep.files)
+    # the largest figure first, rendered by a second process while this one does the rest
+    best_png = BackgroundPng(caging.pair_figure(st1, st2, rep.best, log))
 
     write("best_designs.csv", csv_bytes(rep.best, best_columns(st1, st2)))
     write("caging_vs_tip.csv", csv_bytes(rep.caging_tip, CT_COLUMNS))
@@ -269,7 +271,7 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write(f"optimization_{tag}.png", png(optimized.optimization_figure(
             st, rows, lambda m, tag=tag: log(f"scene {tag}: {m}"))))
     write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
-    write("best_designs.png", png(caging.pair_figure(st1, st2, rep.best, log)))
+    write("best_designs.png", best_png.result())
     write("report.md", markdown(st1, st2, rep).encode())
     finish()
     return rep
