@@ -31,7 +31,7 @@ from ..model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 
 #: Cold compilation of every kernel, on the reference machine (docs/performance.md, "Cold
 #: compilation"): what the one line says to expect.
-COLD_SECONDS = 45
+COLD_SECONDS = 40
 MARKER = "compiled"
 
 
