@@ -157,7 +157,7 @@ def test_stores_of_other_designs_parts_or_grid_are_refused(made, tmp_path, what,
 # run threads (pytest-xdist), so there it renders in-process: a fresh single-threaded Python
 # checks the child's bytes against the in-process rendering, and that a thread forbids the fork.
 BACKGROUND_PNG = r"""
-import threading, time
+import threading
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from sweep.report.style import BackgroundPng, png
