@@ -283,6 +283,21 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
     crossings.sort()
     hi, _, winner, lo = crossings[0]
     reported = lo if winner == "lost" else hi
+    t1_reported = tip_strike_t1(dx, dy, reported, l1, l2, r)
+    if (winner != "lost" and t1_reported is not None
+            and link_enters_before_tip(dx, dy, t1_reported, reported, l1, l2, r)):
+        # the distal link cuts into the part where the path ends: it reached the disc at the
+        # tip within the step, unseen at the nodes (D20 as D19): lost where it is first met
+        free, cut = prev, reported       # lost does not hold at the free node, holds here
+        while cut - free > min(root_tol, 1e-12):
+            mid = 0.5 * (free + cut)
+            if mid <= free or mid >= cut:
+                break
+            if holds("lost", mid):
+                cut = mid
+            else:
+                free = mid
+        lo, hi, winner, reported = free, cut, "lost", free
     if winner != "proximal_stop" and holds("proximal_stop", reported):
         # the proximal stop (or the part, D21) was passed within the step, unseen at the nodes:
         # the path ends where it is first met (D19)

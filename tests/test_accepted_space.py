@@ -627,6 +627,61 @@ def test_tip_path_ends_on_a_proximal_stop_passed_within_one_step():
     assert math.hypot(t[0] - dx, t[1] - dy) == pytest.approx(r, rel=1e-9)
 
 
+#: Found by the long profile (2026-11-27): a map of l1 = l2 = 1e-3, r = 2e-5 with tip_contact and
+#: a coarse reconfig_step (0.318 rad); the part on the palm line beyond the palm.
+PALM_LINE_TIP_CASE = dict(
+    design=Design(l1=0.001, l2=0.0010046157902783952, r1=0.03249468674022912,
+                  r2=0.03249468674022912, w=1.1927364753181519e-05),
+    part=Part(r=2.0000000000000015e-05, mu=0.0305472156318628),
+    command=Command(f_left=0.0305472156318628, f_right=1.0),
+    limits=Limits(theta1_min_deg=0.0, theta1_max_deg=180.0,
+                  theta2_min_deg=-6.677145136734467, theta2_max_deg=90.0),
+    accuracy=Accuracy(reconfig_step=0.3180722275030504, root_tol=1e-12, trajectory="grid8"),
+    effects=Effects(friction=True, tip_contact=True),
+    outputs=Outputs(energy=True, equilibrium=True, caging=True, forces=False),
+    grid=Grid(h=5.9636823765907595e-06))
+
+
+def test_tip_path_ends_where_the_link_cut_in_within_one_step():
+    """D20 within one step (as D19): the tip struck at t1 = 0.058 and slid down the disc; its
+    distal link reached the disc at the tip near t2 = -0.080 and cut in until t1 had passed far
+    below its stop, where it came out again: at the nodes of a 0.318 rad step only the proximal
+    stop held, and the finger was reported on it (TIP_ONLY, t1 = 0) with its distal link 1.7e-8
+    inside the part. The part is lost where the link reaches the disc at the tip, as a fine
+    step (0.001 rad) finds in the reference."""
+    from naive_tip import naive_tip_finger
+    from sweep.kernels.finger import solve_finger
+    from kernel_calls import solver_settings
+    from sweep.kernels.records import NO_EFFECTS, FingerModel, TipContact
+    from sweep.model import SLIPPED
+
+    c = PALM_LINE_TIP_CASE
+    d, part, lim = c["design"], c["part"], c["limits"]
+    th2min, th2max = math.radians(lim.theta2_min_deg), math.radians(lim.theta2_max_deg)
+    dx, dy, step = 0.0020037972785344953, part.r, c["accuracy"].reconfig_step
+    got = solve_finger(dx, dy, FingerModel(d.l1, d.l2, d.r1, d.r2, part.r, part.mu, th2min,
+                                           th2max),
+                       solver_settings(step, 1e-12),
+                       NO_EFFECTS._replace(tip_contact=TipContact(True)))
+    fine = naive_tip_finger(dx, dy, d.l1, d.l2, d.r1, d.r2, part.r, part.mu, th2min, th2max,
+                            0.001, 1e-12)
+    coarse = naive_tip_finger(dx, dy, d.l1, d.l2, d.r1, d.r2, part.r, part.mu, th2min, th2max,
+                              step, 1e-12)
+    assert got.mode == fine["mode"] == coarse["mode"] == SLIPPED
+    for ref in (fine, coarse):
+        assert got.t1 == pytest.approx(ref["t1"], abs=1e-9)
+        assert got.t2 == pytest.approx(ref["t2"], abs=1e-9)
+    (_, b, t) = finger_points(dataclasses.replace(d, w=0.0), np.array(got.t1),
+                              np.array(got.t2), 1)   # the finger frame
+    assert segment_distance(dx, dy, b, t) >= part.r * (1 - LINK_TOL)
+    assert math.hypot(t[0] - dx, t[1] - dy) == pytest.approx(part.r, rel=1e-9)   # tangent at T
+
+
+def test_a_map_whose_tip_path_cut_in_within_one_step_keeps_its_links_out_of_the_part():
+    """The long profile's draw itself (the left finger at x = -0.00201 on the palm line)."""
+    check_map(PALM_LINE_TIP_CASE, run(PALM_LINE_TIP_CASE))
+
+
 def test_a_finger_stopped_by_the_other_with_tip_contact_keeps_its_links_out_of_the_part():
     """Found by the long profile (2026-11-25): finger_collision and tip_contact on, a small part
     (r = 0.1225, mu = 0): at one grid point the left finger, reported free (mode 0) at

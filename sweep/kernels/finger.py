@@ -64,6 +64,7 @@ from .finger_paths import (
     SLIP,
     tip_columns,
     tip_event_margin,
+    tip_node,
     tip_on_disc,
     TIP_PATH,
     tip_polar,
@@ -254,6 +255,13 @@ def tip_path(dx, dy, t2_start, finger, solver, springs):
                                                solver, springs, TIP_PATH)
     if event == SLIP:
         s = s_touching
+    elif tip_node(s, dx, dy, finger, springs)[7] > RANGE_TOL:
+        # the distal link already cuts into the part at the path's end: it reached the disc at
+        # the tip within the last step, unseen at its nodes (the cut rose and fell back within a
+        # coarse reconfig_step): the part was lost there, where it is first met (D20, D19)
+        _, s = event_crossing(SLIP, s, s_free, dx, dy, finger, springs,
+                              min(solver.root_tol, EXACT_TOL), TIP_PATH)
+        event = SLIP
     if event != PROXIMAL_STOP and tip_event_margin(PROXIMAL_STOP, s, dx, dy, finger, springs)[0]:
         # the proximal stop (or the part, D21) was passed within the last step, unseen at its
         # nodes (a coarse reconfig_step): the path ends where it is first met (D19)
