@@ -263,6 +263,18 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         prev = node
         n += 1
 
+    def first_held(ev, free, held, tol):
+        """Bisect where ev starts: (free, held), ev not holding at free, holding at held."""
+        while held - free > tol:
+            mid = 0.5 * (free + held)
+            if mid <= free or mid >= held:
+                break
+            if holds(ev, mid):
+                held = mid
+            else:
+                free = mid
+        return free, held
+
     crossings = []
     for priority, ev in enumerate(TIP_EVENTS):
         if ev not in holding:
@@ -270,15 +282,7 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         tol = root_tol                   # a joint stop, and events of one step: 1e-12 (D19)
         if len(holding) > 1 or ev in ("distal_stop", "proximal_stop"):
             tol = min(root_tol, 1e-12)
-        lo, hi = prev, node              # the event holds at hi, not at lo
-        while hi - lo > tol:
-            mid = 0.5 * (lo + hi)
-            if mid <= lo or mid >= hi:
-                break
-            if holds(ev, mid):
-                hi = mid
-            else:
-                lo = mid
+        lo, hi = first_held(ev, prev, node, tol)   # the event holds at hi, not at lo
         crossings.append((hi, priority, ev, lo))
     crossings.sort()
     hi, _, winner, lo = crossings[0]
@@ -288,29 +292,13 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
             and link_enters_before_tip(dx, dy, t1_reported, reported, l1, l2, r)):
         # the distal link cuts into the part where the path ends: it reached the disc at the
         # tip within the step, unseen at the nodes (D20 as D19): lost where it is first met
-        free, cut = prev, reported       # lost does not hold at the free node, holds here
-        while cut - free > min(root_tol, 1e-12):
-            mid = 0.5 * (free + cut)
-            if mid <= free or mid >= cut:
-                break
-            if holds("lost", mid):
-                cut = mid
-            else:
-                free = mid
-        lo, hi, winner, reported = free, cut, "lost", free
+        lo, hi = first_held("lost", prev, reported, min(root_tol, 1e-12))
+        winner, reported = "lost", lo
     if winner != "proximal_stop" and holds("proximal_stop", reported):
         # the proximal stop (or the part, D21) was passed within the step, unseen at the nodes:
         # the path ends where it is first met (D19)
-        free, stop = prev, reported      # it does not hold at the free node, holds here
-        while stop - free > min(root_tol, 1e-12):
-            mid = 0.5 * (free + stop)
-            if mid <= free or mid >= stop:
-                break
-            if holds("proximal_stop", mid):
-                stop = mid
-            else:
-                free = mid
-        hi, winner = stop, "proximal_stop"
+        _, hi = first_held("proximal_stop", prev, reported, min(root_tol, 1e-12))
+        winner = "proximal_stop"
     if winner == "lost":
         t1 = tip_strike_t1(dx, dy, lo, l1, l2, r)
         cause = "miss" if tip_strike_t1(dx, dy, hi, l1, l2, r) is None else "pull_off"
