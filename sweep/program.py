@@ -11,7 +11,7 @@ import contextlib
 import signal
 import sys
 
-from . import EXIT_INTERRUPTED
+from . import EXIT_INTERRUPTED, interrupt_cause
 
 
 class _Terminated(KeyboardInterrupt):
@@ -54,8 +54,12 @@ def main(argv=None) -> None:
         signal.signal(signal.SIGTERM, _terminated)
     try:
         from .cli import main as cli
-    except KeyboardInterrupt as exc:
-        what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
+    except BaseException as exc:
+        # a Ctrl-C in a class's __set_name__ while a module loads comes wrapped in a RuntimeError
+        interrupt = interrupt_cause(exc)
+        if interrupt is None:
+            raise
+        what = "terminated" if isinstance(interrupt, _Terminated) else "interrupted"
         sys.stderr.write(f"sweep: {what}; nothing was written\n")
         sys.exit(EXIT_INTERRUPTED)
     try:

@@ -797,6 +797,41 @@ def test_an_interrupt_that_python_wraps_is_still_one_line_and_exit_130(capsys):
     assert err.count("\n") == 1 and err.startswith("sweep: interrupted")
 
 
+def test_an_interrupt_that_python_wraps_while_the_cli_is_imported_is_one_line_and_exit_130():
+    """The long profile's Ctrl-C spray (2026-11-28): the Ctrl-C hit `platform`'s
+    `cached_property.__set_name__` while click (so the CLI) was being imported; Python 3.11
+    turned it into a RuntimeError caused by it, which the program's import guard let through as
+    a traceback. A real class attribute whose __set_name__ is interrupted, in the module the
+    program imports first."""
+    code = """
+import importlib.abc, importlib.util, sys
+import sweep.program as program
+
+class Interrupted:
+    def __set_name__(self, owner, name):
+        raise KeyboardInterrupt
+
+class InterruptedCli(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    def find_spec(self, name, path=None, target=None):
+        if name == "sweep.cli":
+            return importlib.util.spec_from_loader(name, self)
+    def create_module(self, spec):
+        return None
+    def exec_module(self, module):
+        class Uname:              # as platform.uname_result's cached_property
+            processor = Interrupted()
+
+sys.meta_path.insert(0, InterruptedCli())
+program.main(["--version"])
+print("not interrupted")
+"""
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=_clean_env(), timeout=60)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stdout == ""
+    assert proc.stderr == "sweep: interrupted; nothing was written\n", proc.stderr
+
+
 @pytest.mark.parametrize("l2, r2, ok", [(5e-324, 0.25, False), (1e-13, 0.25, False),
                                         (1e-11, 0.25, True), (0.5, 1e-120, False)])
 def test_lengths_of_one_scale_are_accepted_and_others_refused(l2, r2, ok):

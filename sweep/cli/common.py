@@ -23,7 +23,7 @@ from pathlib import Path
 
 import click
 
-from .. import EXIT_INTERRUPTED
+from .. import EXIT_INTERRUPTED, interrupt_cause
 
 
 class UserError(click.ClickException):
@@ -107,24 +107,11 @@ def user_errors():
         except Exception as exc:
             if isinstance(exc, _user_error_types()):
                 raise UserError(str(exc)) from None
-            interrupt = _interrupt_cause(exc)
+            interrupt = interrupt_cause(exc)
             if interrupt is not None:
                 click.echo(interrupted_message(interrupt), err=True)
                 sys.exit(EXIT_INTERRUPTED)
             raise
-
-
-def _interrupt_cause(exc: BaseException) -> KeyboardInterrupt | None:
-    """The Ctrl-C / SIGTERM behind an exception, if any: Python wraps an exception raised in
-    some hooks (a dataclass field's `__set_name__` while a module is imported) in a
-    RuntimeError whose cause is the KeyboardInterrupt."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return None
 
 
 def real_path(path) -> Path:
