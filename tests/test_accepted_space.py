@@ -439,9 +439,15 @@ def moved_limit(case, name, delta):
 
 
 def outcome_key(m):
-    """(class, left mode, right mode) per point: what a move of a limit may switch."""
+    """(class, left mode, right mode, where each VERTEX finger struck) per point: what a move
+    of a limit may switch. A vertex strikes in the rigid sweep or with the proximal folded on
+    its upper stop (MODEL 4.2), two events the VERTEX code does not tell apart: a graze of T in
+    the rigid sweep entering or not switches between them, the energy jumping with the same
+    codes (the long profile, 2026-11-28: theta2_min = -89.999999999 deg moved 3e-10 deg)."""
     f = m.fields
-    return np.stack([f["point_class"], f["finger_mode"][0], f["finger_mode"][1]])
+    mode = f["finger_mode"]
+    folded = (mode == VERTEX) & (f["theta1"] >= math.pi - 1e-9)
+    return np.stack([f["point_class"], mode[0], mode[1], folded[0], folded[1]])
 
 
 def near_b(case, *maps):
@@ -988,6 +994,35 @@ def test_limits_at_the_edges_agree_with_the_limit_just_inside_and_move_continuou
         check_limit_moves(case, run(case))
 
     check()
+
+
+def test_a_graze_of_the_tip_switches_a_vertex_strike_once_between_its_two_events():
+    """The long profile's edge draw (2026-11-28): the right finger's rigid sweep at the reach
+    edge (3.3 at k2 = l2), theta2_min = -89.999999999 deg. There T grazes the disc and is
+    passed by (the finger folds to pi and its tip strikes as the distal closes: VERTEX at
+    t1 = pi); 3e-10 deg further T enters and strikes in the rigid sweep (VERTEX at
+    t1 = 3.0776). One switch at a threshold of the model, the energy jumping by 0.0175 with
+    the same codes; where it struck is part of the outcome (outcome_key)."""
+    case = dict(design=Design(l1=1.0, l2=0.7859320939764187, r1=0.2332905239554333,
+                              r2=0.2332905239554333, w=0.14720110310995038),
+                part=Part(r=1.0, mu=1.0), command=Command(f_left=0.0, f_right=1.0),
+                limits=Limits(theta1_min_deg=0.0, theta1_max_deg=180.0,
+                              theta2_min_deg=-89.999999999, theta2_max_deg=180.0),
+                accuracy=Accuracy(reconfig_step=0.00019352841086427302, root_tol=1e-12,
+                                  trajectory="grid8"),
+                effects=Effects(friction=True), outputs=Outputs(),
+                grid=Grid(h=0.07360055155497519, xlim=(-1.913614340429355, -1.3248099279895535),
+                          ylim=(1.2208016546649256, 1.8096060671047272)))
+    m = run(case)
+    moved = run(moved_limit(case, "theta2_min_deg", 1e-9 / 3.0))
+    switched = (outcome_key(m) != outcome_key(moved)).any(axis=0)
+    x, y = np.meshgrid(m.x, m.y)
+    j, i = np.argwhere(np.isclose(x, -1.6192121342094543) & np.isclose(y, 1.5152038608848264))[0]
+    assert switched[j, i]
+    assert m.fields["finger_mode"][1, j, i] == moved.fields["finger_mode"][1, j, i] == VERTEX
+    assert m.fields["theta1"][1, j, i] == pytest.approx(math.pi, abs=1e-9)
+    assert moved.fields["theta1"][1, j, i] < math.pi - 0.01
+    check_limit_moves(case, m)
 
 
 def test_more_friction_never_lowers_the_energy_over_the_accepted_space():

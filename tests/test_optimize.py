@@ -386,3 +386,15 @@ def test_a_robustness_option_that_is_not_finite_is_refused(small_store, option):
     assert res.exit_code == 2, res.output
     assert option in res.output and "finite" in res.output
     assert not (small_store.parent / (small_store.name + ".optimize.h5")).exists()
+
+
+@pytest.mark.parametrize("value", ["1e9", "1e300"])
+def test_a_tolerance_larger_than_the_fingers_is_refused(small_store, value):
+    """The long fuzz profile (2026-11-28): --tolerance 1e300 ended in an OverflowError
+    traceback and 1e9 in an error about a grid that does not fit in memory, naming no option.
+    A tolerance larger than the box's smallest length or radius is refused at the edge."""
+    res = invoke("optimize", small_store, "--tolerance", value, "--no-progress")
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "--tolerance" in lines[0], res.output
+    assert not (small_store.parent / (small_store.name + ".optimize.h5")).exists()

@@ -202,6 +202,12 @@ def optimize(store, part_items, parts, evaluations, seed, fix_items, bound_items
                             f"the box allows (l1 + l2 = {lo[0] + lo[1]:g})")
     if not box.free:
         raise UserError("nothing to search: every parameter is fixed")
+    # a tolerance as large as a whole link or pulley is no manufacturing tolerance, and its
+    # corners' maps may not fit in memory (the long fuzz profile's --tolerance 1e300)
+    smallest = min(float(v) for v in box.upper[:4])
+    if not tolerance <= smallest:
+        raise UserError(f"--tolerance: {tolerance:g} is larger than the box's smallest length "
+                        f"or radius ({smallest:g}; l1, l2, r1, r2 at their upper bounds)")
     out = Path(out) if out is not None else optimization_path(store)
     threads = resolve_threads(threads)
     settings = OptimizeSettings(evaluations=evaluations, seed=seed, n_seeds=n_seeds,
