@@ -17,6 +17,12 @@
   signature per kernel, and `make run`'s commands compile nothing beyond `ensure_compiled`.
 
 A switch is on when its variable is set to anything but "" or "0".
+
+The long profiles draw the same cases on every run (Hypothesis `derandomize`, fixed seeds), so
+that "`make test-long` passes" says the same thing on every machine and every day. SWEEP_EXPLORE
+draws fresh cases instead (Hypothesis seeded from the OS, the fuzz's interrupt timings too):
+`make explore`, the long profiles as a random search; a case it finds becomes an explicit test
+(docs/stability.md, docs/sweeps.md), and the fixed draws stay as they were.
 """
 from __future__ import annotations
 
@@ -32,3 +38,4 @@ LONG_FUZZ = on("SWEEP_LONG_FUZZ")
 LONG_ORACLES = on("SWEEP_LONG_ORACLES")
 LONG_RECIPE = on("SWEEP_LONG_RECIPE")
 LONG_COMPILE = on("SWEEP_LONG_COMPILE")
+EXPLORE = on("SWEEP_EXPLORE")

@@ -40,6 +40,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, note, settings
 from hypothesis import strategies as st
 
+from profiles import EXPLORE
 from sweep.compute.layout import finger_offsets, map_grid
 from sweep.compute.maps import compute_map
 from sweep.model import (
@@ -81,7 +82,7 @@ EDGE_EXAMPLES = 1000 if LONG else int(os.environ.get("EDGE_EXAMPLES", "8"))
 BOUNDED_ROWS = 30
 # The long profile does not shrink a failure (an example costs up to seconds; the failing case
 # is printed as drawn, with its note).
-PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not LONG, database=None,
+PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not EXPLORE, database=None,
                    suppress_health_check=list(HealthCheck),
                    phases=[Phase.explicit, Phase.generate] if LONG else list(Phase))
 #: Relative tolerance of "no link passes through the part": a link may come within

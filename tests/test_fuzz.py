@@ -48,6 +48,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import fuzz_cli as fz
+from profiles import EXPLORE
 from sweep.cli import main
 from sweep.model import EFFECT_NAMES, OUTPUT_NAMES, ModelInputError
 from sweep.config.parse import load_scene
@@ -69,7 +70,7 @@ def profile(test: str, commands: int = 1):
     share of the long profile is split between them)."""
     if LONG:
         n = LONG_CASES * WEIGHTS[test] // sum(WEIGHTS.values()) // commands
-        return settings(max_examples=max(n, 1), deadline=None, derandomize=False,
+        return settings(max_examples=max(n, 1), deadline=None, derandomize=not EXPLORE,
                         suppress_health_check=list(HealthCheck), database=None)
     return settings(max_examples=BOUNDED[test], deadline=None, derandomize=True,
                     suppress_health_check=list(HealthCheck), database=None)
@@ -689,7 +690,7 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
     import signal
 
     assert SWEEP.exists(), SWEEP
-    rng = random.Random(None if LONG else 20261125)
+    rng = random.Random(None if EXPLORE else 20261125)
     outcomes = Counter()
     for k in range(INTERRUPT_CASES):
         out = tmp_path / f"o{k}.h5"

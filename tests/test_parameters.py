@@ -15,7 +15,7 @@ from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 lengths = st.floats(0.05, 3.0)
 
 
-@settings(max_examples=25, deadline=None, derandomize=True)
+@settings(max_examples=25, deadline=None)
 @given(l1=lengths, l2=lengths, r1=st.floats(0.01, 0.3), r2=st.floats(0.01, 0.3),
        r=st.floats(0.05, 1.0), mu=st.floats(0.0, 2.0), friction=st.booleans())
 def test_the_finger_record_holds_the_named_parameters(l1, l2, r1, r2, r, mu, friction):

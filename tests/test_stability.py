@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from kernel_calls import solve as solve_finger
+from profiles import EXPLORE
 from sweep.compute.batch import cell_map_fields, summarize_cells
 from sweep.kernels.finger_statics import finger_energy
 from sweep.compute.maps import compute_map
@@ -40,7 +41,7 @@ from sweep.schema import SUMMARY_FIELDS
 
 LONG = os.environ.get("SWEEP_LONG_PROPERTIES", "") not in ("", "0")
 EXAMPLES = 200 if LONG else int(os.environ.get("STABILITY_EXAMPLES", "10"))
-PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not LONG,
+PROFILE = settings(max_examples=EXAMPLES, deadline=None, derandomize=not EXPLORE,
                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 CONTINUITY_MOVE = 1e-9
 fl = dict(allow_nan=False, allow_infinity=False)
