@@ -21,10 +21,11 @@ define install_into_venv
 	touch $@
 endef
 
-$(RUN_STAMP): pyproject.toml
+# pip installs bin/sweep as a copy: an edit of it installs again.
+$(RUN_STAMP): pyproject.toml bin/sweep
 	$(call install_into_venv,.)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml bin/sweep
 	$(call install_into_venv,.[test])
 
 install: $(STAMP)

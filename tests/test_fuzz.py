@@ -877,3 +877,24 @@ def test_a_refused_plot_leaves_no_folder_of_the_map_behind(tmp_path):
     assert res.exit_code == 2, res.output
     assert "z-blocker is a file, not a directory" in res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["z-blocker"]
+
+
+def test_an_interrupt_that_python_wraps_while_the_program_is_imported_is_one_line_and_exit_130(
+        tmp_path):
+    """bin/sweep's own guard, around `import site` and the import of `sweep.program` (whose
+    standard-library imports come before the program's handling): a Ctrl-C that Python wraps in
+    a RuntimeError there (a class attribute's __set_name__, as in `platform`) is one line and
+    exit 130 too. The interrupted module is `signal`, which `sweep.program` imports and Python's
+    start-up does not."""
+    (tmp_path / "signal.py").write_text(
+        "class Interrupted:\n"
+        "    def __set_name__(self, owner, name):\n"
+        "        raise KeyboardInterrupt\n"
+        "class Handlers:\n"
+        "    sigint = Interrupted()\n")
+    env = {**_clean_env(), "PYTHONPATH": str(tmp_path)}
+    proc = subprocess.run([str(SWEEP), "--version"], capture_output=True, text=True, env=env,
+                          timeout=60)
+    assert proc.returncode == 130, proc.stderr
+    assert proc.stdout == ""
+    assert proc.stderr == "sweep: interrupted; nothing was written\n", proc.stderr
