@@ -294,6 +294,13 @@ def tip_path(dx, dy, t2_0, l1, l2, r1, r2, r, mu, theta2_min, theta2_max, step, 
         # tip within the step, unseen at the nodes (D20 as D19): lost where it is first met
         lo, hi = first_held("lost", prev, reported, min(root_tol, 1e-12))
         winner, reported = "lost", lo
+    if winner == "lost" and holds("stick", reported) and not holds("stick", prev):
+        # the tip holds where it last touched: the tendon stopped driving it along the path
+        # (and would pull it off beyond) within the step, unseen at the nodes: it stuck where the
+        # stick first holds (D15 "Within one step", as D19 and D20). Not at the path's start
+        # (prev = t2_0, decided by the strike's hold test with its stops)
+        _, hi = first_held("stick", prev, reported, min(root_tol, 1e-12))
+        winner, reported = "stick", hi
     if winner != "proximal_stop" and holds("proximal_stop", reported):
         # the proximal stop (or the part, D21) was passed within the step, unseen at the nodes:
         # the path ends where it is first met (D19)

@@ -689,6 +689,75 @@ def test_a_map_whose_tip_path_cut_in_within_one_step_keeps_its_links_out_of_the_
     check_map(PALM_LINE_TIP_CASE, run(PALM_LINE_TIP_CASE))
 
 
+#: Found by the long profile's fixed draws (2026-11-28): joint springs almost as strong as the
+#: right finger's small tension, tip_contact, a 0.01 rad reconfig_step.
+SPRING_TIP_CASE = dict(
+    design=Design(l1=1.0, l2=1.0, r1=1.0, r2=1.0, w=1.0000002744895709),
+    part=Part(r=1.0000002744895709, mu=1.0),
+    command=Command(f_left=3.9825897108945525, f_right=0.000684943065318304),
+    limits=Limits(theta1_min_deg=0.0, theta1_max_deg=180.0, theta2_min_deg=-5.0,
+                  theta2_max_deg=5.308993036854141e-285),
+    accuracy=Accuracy(reconfig_step=0.01, root_tol=1e-12, trajectory="sliding"),
+    effects=Effects(friction=True, tip_contact=True, joint_springs=True,
+                    spring_k1=0.0001737040954804004, spring_k2=0.007474707688161604),
+    outputs=Outputs(energy=True, equilibrium=True, caging=True, forces=False),
+    grid=Grid(h=0.2500000686223927))
+
+
+def test_a_tip_path_that_turns_uphill_within_one_step_sticks_where_the_tip_first_holds():
+    """D15 within one step (as D19, D20): the right finger's tip struck with its distal on the
+    lower stop and slid along the disc (t2 rising from -5 deg); the springs' torque grows with
+    t2, so V along the path has a minimum near t2 = -0.0335, where no friction at all is
+    needed; beyond it the tendon would pull the tip off (normal force < 0 from t2 = -0.0304).
+    The stick window (-0.0354, -0.0305) at mu = 1 lay between two nodes of the 0.01 rad step,
+    and the finger was reported lost (SLIPPED) at t2 = -0.0304, uphill of where it stuck: more
+    friction (mu = 2.5, sticking at a node) then gave a lower energy. The path ends where the tip
+    first holds, as a scan of the path at 1e-5 rad finds from the statics written out here
+    (the tip's columns of naive_tip, the springs' torques of model-notes D13)."""
+    from naive_tip import normal_force, tip_columns, tip_strike_t1
+    from sweep.kernels.finger import solve_finger
+    from kernel_calls import solver_settings
+    from sweep.kernels.records import NO_EFFECTS, FingerModel, JointSprings, TipContact
+    from sweep.model import TIP_ONLY
+
+    c = SPRING_TIP_CASE
+    d, part, lim, eff = c["design"], c["part"], c["limits"], c["effects"]
+    tension = c["command"].f_right
+    th2min, th2max = math.radians(lim.theta2_min_deg), math.radians(lim.theta2_max_deg)
+    dx, dy = 1.75 - 0.5 * d.w, 2.0000005489791417          # the right finger's frame
+
+    def tip_holds(t2):
+        t1 = tip_strike_t1(dx, dy, t2, d.l1, d.l2, part.r)
+        tau = (d.r1 - eff.spring_k1 / tension * t1,
+               d.r2 - eff.spring_k2 / tension * (t2 - th2min))
+        c_n, c_t = tip_columns(dx, dy, t1, t2, d.l1, d.l2)
+        big_n = normal_force(tau, c_n, c_t)
+        tangential = (tau[0] - big_n * c_n[0]) / c_t[0]
+        return big_n >= 0.0 and abs(tangential) <= part.mu * big_n
+
+    scan = th2min + 1e-5 * np.arange(1, int((th2max - th2min) / 1e-5))
+    first = next(t2 for t2 in scan if tip_holds(t2))
+    assert not tip_holds(first + 0.012)       # the window closes within one 0.01 step
+    for step in (0.01, 1e-4):
+        got = solve_finger(dx, dy, FingerModel(d.l1, d.l2, d.r1, d.r2, part.r, part.mu, th2min,
+                                               th2max),
+                           solver_settings(step, 1e-12),
+                           NO_EFFECTS._replace(tip_contact=TipContact(True),
+                                               joint_springs=JointSprings(
+                                                   True, eff.spring_k1, eff.spring_k2,
+                                                   tension)))
+        assert got.mode == TIP_ONLY, step
+        assert got.t2 == pytest.approx(first - 0.5e-5, abs=1e-5), step
+        assert got.t1 == pytest.approx(tip_strike_t1(dx, dy, got.t2, d.l1, d.l2, part.r),
+                                       abs=1e-12)
+
+
+def test_more_friction_never_lowers_the_energy_where_a_tip_path_turned_uphill_within_a_step():
+    """The long profile's draw itself: at (1.75, 2.0) the energy at mu = 1 was 3.6e-8 above
+    that at mu = 2.5."""
+    check_friction_monotone(SPRING_TIP_CASE, run(SPRING_TIP_CASE))
+
+
 def test_a_finger_stopped_by_the_other_with_tip_contact_keeps_its_links_out_of_the_part():
     """Found by the long profile (2026-11-25): finger_collision and tip_contact on, a small part
     (r = 0.1225, mu = 0): at one grid point the left finger, reported free (mode 0) at

@@ -62,6 +62,7 @@ from .finger_paths import (
     proximal_link_gap,
     PROXIMAL_STOP,
     SLIP,
+    STICK,
     tip_columns,
     tip_event_margin,
     tip_node,
@@ -262,6 +263,16 @@ def tip_path(dx, dy, t2_start, finger, solver, springs):
         _, s = event_crossing(SLIP, s, s_free, dx, dy, finger, springs,
                               min(solver.root_tol, EXACT_TOL), TIP_PATH)
         event = SLIP
+    if (event == SLIP and tip_event_margin(STICK, s, dx, dy, finger, springs)[0]
+            and not tip_event_margin(STICK, s_free, dx, dy, finger, springs)[0]):
+        # the tip could hold where it last touched the part: the tendon stopped driving it along
+        # the path (V rose past a minimum) before it pulled the tip off, all within the last
+        # step; the path ends where the tip first holds (D15 "Within one step"). Not where the
+        # path began (s_free its start): the strike's own hold test, with its stops, decided
+        # there, and at a straight finger (t2 = 0) the tip's columns are parallel.
+        s, _ = event_crossing(STICK, s, s_free, dx, dy, finger, springs,
+                              min(solver.root_tol, EXACT_TOL), TIP_PATH)
+        event = STICK
     if event != PROXIMAL_STOP and tip_event_margin(PROXIMAL_STOP, s, dx, dy, finger, springs)[0]:
         # the proximal stop (or the part, D21) was passed within the last step, unseen at its
         # nodes (a coarse reconfig_step): the path ends where it is first met (D19)
