@@ -714,7 +714,7 @@ def test_a_tip_path_that_turns_uphill_within_one_step_sticks_where_the_tip_first
     friction (mu = 2.5, sticking at a node) then gave a lower energy. The path ends where the tip
     first holds, as a scan of the path at 1e-5 rad finds from the statics written out here
     (the tip's columns of naive_tip, the springs' torques of model-notes D13)."""
-    from naive_tip import normal_force, tip_columns, tip_strike_t1
+    from naive_tip import tip_columns, tip_strike_t1
     from sweep.kernels.finger import solve_finger
     from kernel_calls import solver_settings
     from sweep.kernels.records import NO_EFFECTS, FingerModel, JointSprings, TipContact
@@ -731,9 +731,9 @@ def test_a_tip_path_that_turns_uphill_within_one_step_sticks_where_the_tip_first
         tau = (d.r1 - eff.spring_k1 / tension * t1,
                d.r2 - eff.spring_k2 / tension * (t2 - th2min))
         c_n, c_t = tip_columns(dx, dy, t1, t2, d.l1, d.l2)
-        big_n = normal_force(tau, c_n, c_t)
-        tangential = (tau[0] - big_n * c_n[0]) / c_t[0]
-        return big_n >= 0.0 and abs(tangential) <= part.mu * big_n
+        # tau = F c_n + G c_t: the tip's normal force F and tangential force G
+        big_f, big_g = np.linalg.solve(np.array([[c_n[0], c_t[0]], [c_n[1], c_t[1]]]), tau)
+        return big_f >= 0.0 and abs(big_g) <= part.mu * big_f
 
     scan = th2min + 1e-5 * np.arange(1, int((th2max - th2min) / 1e-5))
     first = next(t2 for t2 in scan if tip_holds(t2))
