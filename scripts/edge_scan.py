@@ -24,7 +24,7 @@ import random
 
 from sweep.kernels.finger import solve_finger
 from sweep.kernels.records import NO_EFFECTS, FingerModel, SolverSettings, TipContact
-from sweep.model import RANGE_TOL, STREAMLINE_STEP, TRAJECTORY_SLIDING
+from sweep.model import DEFAULT_STEP_RESOLUTION, RANGE_TOL, STREAMLINE_STEP, TRAJECTORY_SLIDING
 
 KINDS = ("tangent-3.3", "b-graze", "t-graze", "proximal-3.1", "reach", "palm-row",
          "tangent-3.2", "proximal-at-b", "tip-graze-about-b")
@@ -49,7 +49,8 @@ def check(dx, dy, l1, l2, r, th2min, th2max, tip, r1=1.0, r2=0.5, mu=0.0, step=0
     if dy < r - RANGE_TOL or dx * dx + dy * dy < r * r * (1 - 1e-12):
         return None
     finger = FingerModel(l1, l2, r1, r2, r, mu, th2min, th2max)
-    solver = SolverSettings(step, tol, TRAJECTORY_SLIDING, STREAMLINE_STEP)
+    solver = SolverSettings(step, tol, TRAJECTORY_SLIDING, STREAMLINE_STEP,
+                            DEFAULT_STEP_RESOLUTION)
     effects = NO_EFFECTS._replace(tip_contact=TipContact(True)) if tip else NO_EFFECTS
     state = solve_finger(dx, dy, finger, solver, effects)
     if state.mode < 0:

@@ -14,8 +14,8 @@ import os
 from .model import GRID_TOL, Design, Grid, ModelInputError, Part
 
 # Bytes held per grid point while a map is computed, every array of kernels/records.py:
-#: one finger's field (mode, t1, t2, k1, k2, tip_overlap)
-FINGER_BYTES = 1 + 4 * 8 + 1
+#: one finger's field (mode, t1, t2, k1, k2, tip_overlap, first_event)
+FINGER_BYTES = 1 + 4 * 8 + 1 + 1
 #: the outcomes (energy, l_open, caging_score; class and four flags; end state, end index)
 OUTCOME_BYTES = 3 * 8 + 5 + 1 + 8
 #: both fingers, the outcomes and the trajectory stack (one int64 per point)

@@ -92,14 +92,31 @@ class Limits:
         return math.radians(self.theta2_max_deg)
 
 
+#: The step resolution of the trajectories (Accuracy.step_resolution): walls of vertex strikes
+#: (about 0.034 wide on the paper's largest fingers) and bands of equilibrium are resolved by a
+#: grid this fine (docs/accuracy.md), so the checks make a coarser grid's steps act as its.
+DEFAULT_STEP_RESOLUTION = 0.0125
+
+
+def step_resolution_ok(value) -> bool:
+    """0 (the checks off), or a finite value in STEP_RESOLUTION_RANGE."""
+    low, high = STEP_RESOLUTION_RANGE
+    return isinstance(value, (int, float)) and (value == 0 or (math.isfinite(value)
+                                                               and low <= value <= high))
+
+
 @dataclass(frozen=True)
 class Accuracy:
-    """Accuracy settings (MODEL 8): reconfiguration step (rad), root tolerance (rad) and the
-    trajectory method (TRAJECTORY_METHODS; "discrete" is read as "grid8")."""
+    """Accuracy settings (MODEL 8): reconfiguration step (rad), root tolerance (rad), the
+    trajectory method (TRAJECTORY_METHODS; "discrete" is read as "grid8") and the step
+    resolution (model length; 0: off): on a grid coarser than it, grid8 and sliding sample a
+    step at this spacing where it could cross a wall or a band of equilibrium narrower than
+    the grid (model-notes D35)."""
 
     reconfig_step: float = 0.01
     root_tol: float = 1e-12
     trajectory: str = "sliding"
+    step_resolution: float = DEFAULT_STEP_RESOLUTION
 
     def __post_init__(self):
         if isinstance(self.trajectory, str) and self.trajectory in TRAJECTORY_ALIASES:
@@ -172,7 +189,10 @@ class Outputs:
 DEFAULT_OUTPUTS = tuple(Outputs().names_on())
 
 
-# Accepted accuracy settings. A smaller step would take more than pi / 1e-6 = 3e6 path
+# Accepted accuracy settings. A step resolution below 1e-4 would sample a step of the coarsest
+# grid thousands of times (a practical hang); 0 switches the step checks off.
+STEP_RESOLUTION_RANGE = (1e-4, 1.0)
+# A smaller reconfiguration step would take more than pi / 1e-6 = 3e6 path
 # evaluations per point (a practical hang); a root tolerance below 1e-15 is below float
 # resolution on [0, pi].
 RECONFIG_STEP_RANGE = (1e-6, 0.5)
@@ -255,6 +275,10 @@ def validate_inputs(design: Design, part: Part, command: Command, limits: Limits
         value = getattr(accuracy, name)
         if not (math.isfinite(value) and low <= value <= high):
             raise ModelInputError(f"{name} must be in [{low:g}, {high:g}] rad, got {value!r}")
+    if not step_resolution_ok(accuracy.step_resolution):
+        low, high = STEP_RESOLUTION_RANGE
+        raise ModelInputError(f"step_resolution must be 0 (off) or in [{low:g}, {high:g}], "
+                              f"got {accuracy.step_resolution!r}")
     if accuracy.trajectory not in TRAJECTORY_METHODS:
         raise ModelInputError(f"trajectory method must be one of {', '.join(TRAJECTORY_METHODS)} "
                               f"(or 'discrete' for grid8), got {accuracy.trajectory!r}")

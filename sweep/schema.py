@@ -92,10 +92,14 @@ POINT_FIELDS = (
     Field("tip_overlap", "bool", FINGER_DIMS,
           "the distal link passed through the part on its way to its "
           "limit (paper's answer kept, MODEL 4.3)", "1"),
-    # Computed with trajectories, kept in memory for pictures (sweep.report.plot), not written.
+    # Kept in memory for pictures (sweep.report.plot), not written.
+    Field("first_event", "int8", FINGER_DIMS,
+          "the closing sequence's first contact (kernels.finger's internal codes): where a "
+          "trajectory's step must be sampled (model-notes D35)", "1", in_map_file=False),
     Field("end_index", "int64", MAP_DIMS,
           "flat (y, x) index of the point where the trajectory started here ends; -1 if none",
           "1", output="caging", in_map_file=False),
+
     # Contact forces (MODEL 5.1, 5.6), only with the `forces` output.
     Field("proximal_normal_force", "float64", FINGER_DIMS,
           "normal force of the proximal contact on the part per unit tendon tension (MODEL 5.6); "

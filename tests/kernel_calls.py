@@ -3,12 +3,13 @@ from __future__ import annotations
 
 from sweep.kernels.finger import closing_constants, closing_contact, reconfigure, solve_finger
 from sweep.kernels.records import NO_EFFECTS, FingerModel, SolverSettings
-from sweep.model import STREAMLINE_STEP, TRAJECTORY_SLIDING
+from sweep.model import DEFAULT_STEP_RESOLUTION, STREAMLINE_STEP, TRAJECTORY_SLIDING
 
 
 def solver_settings(step, root_tol) -> SolverSettings:
     """The accuracy record with the default trajectory method (finger solves ignore it)."""
-    return SolverSettings(float(step), float(root_tol), TRAJECTORY_SLIDING, STREAMLINE_STEP)
+    return SolverSettings(float(step), float(root_tol), TRAJECTORY_SLIDING, STREAMLINE_STEP,
+                          DEFAULT_STEP_RESOLUTION)
 
 
 def finger_model(l1, l2, r1, r2, r, mu_s, theta2_min, theta2_max) -> FingerModel:

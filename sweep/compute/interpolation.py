@@ -114,7 +114,8 @@ def caging_of_fields(fields: dict, x, y, h: float, design: Design, part: Part,
         np.zeros((ny, nx), dtype=np.int8), np.full((ny, nx), -1, dtype=np.int64))
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     hand = hand_record(design.w, command, h, finger)
-    lam = trajectory_ends(outs, np.ascontiguousarray(x, dtype=np.float64),
+    lam = trajectory_ends(outs, np.zeros((2, ny, nx), dtype=np.int8),
+                          np.ascontiguousarray(x, dtype=np.float64),
                           np.ascontiguousarray(y, dtype=np.float64), finger, solver, blocks,
                           hand, np.empty(ny * nx, dtype=np.int64), np.bool_(sliding))
     return float(lam) * h * h, outs.end_state.copy(), outs.end_index.copy()

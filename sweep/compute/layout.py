@@ -110,7 +110,8 @@ def kernel_records(design: Design, part: Part, limits: Limits, accuracy: Accurac
                                  effects)
     finger = cell_finger(cell, 0, float(limits.theta2_min), float(limits.theta2_max))
     solver = SolverSettings(float(accuracy.reconfig_step), float(accuracy.root_tol),
-                            TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP))
+                            TRAJECTORY_METHODS.index(accuracy.trajectory), float(STREAMLINE_STEP),
+                            float(accuracy.step_resolution))
     return finger, solver, effect_blocks(effects, accuracy, tension)
 
 
@@ -136,7 +137,8 @@ def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
                   equilibrium=outs.equilibrium, contained=outs.contained, l_open=outs.l_open,
                   caging_score=outs.caging_score, finger_mode=fingers.mode, theta1=fingers.t1,
                   theta2=fingers.t2, k1=fingers.k1, k2=fingers.k2,
-                  tip_overlap=fingers.tip_overlap, end_index=outs.end_index)
+                  tip_overlap=fingers.tip_overlap, first_event=fingers.first_event,
+                  end_index=outs.end_index)
     for name in list(fields):  # the fields of outputs that are off (sweep.schema: Field.output)
         if not getattr(outputs, POINT[name].output):
             del fields[name]

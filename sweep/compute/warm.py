@@ -47,7 +47,7 @@ def compile_maps() -> None:
         downhill_neighbour,
         max_slide_points,
         new_memo,
-        slide_successor,
+        successor,
     )
     from ..kernels.meeting_search import no_slide_context
     from ..kernels.records import Hand
@@ -72,10 +72,10 @@ def compile_maps() -> None:
     ny, nx = energy.shape
     downhill_neighbour(energy, point_class, 0, 0, h)
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
-    slide_successor(energy, point_class, equilibrium, m.x, m.y, 0, 0, finger, solver, blocks,
-                    Hand(0.8, 1.0, 1.0, h, finger.mu_s, finger.mu_s),
-                    np.empty((max_slide_points(ny, nx), 2)),
-                    new_memo(0, False), no_slide_context())
+    successor(energy, point_class, equilibrium, np.asarray(m.fields["first_event"]), m.x, m.y,
+              0, 0, finger, solver, blocks, Hand(0.8, 1.0, 1.0, h, finger.mu_s, finger.mu_s),
+              True, np.empty((max_slide_points(ny, nx), 2)), new_memo(0, False),
+              no_slide_context())
     steps = max_streamline_steps(ny, nx, 0.5)
     streamline_walk(energy, point_class, equilibrium, caged, 0, 0, 0.5, steps,
                     np.full(energy.size, -1, dtype=np.int64), np.empty((steps + 1, 2)))

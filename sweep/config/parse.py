@@ -16,9 +16,10 @@ import yaml
 
 from ..grid import cell_bytes, cell_extent
 from ..files import StoreError
-from ..model import (DEFAULT_MU_LOW, EFFECTS, IMPLEMENTED_EFFECTS, RECONFIG_STEP_RANGE,
-                     ROOT_TOL_RANGE, TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
-                     ModelInputError, Outputs, Part, validate_inputs)
+from ..model import (DEFAULT_MU_LOW, DEFAULT_STEP_RESOLUTION, EFFECTS, IMPLEMENTED_EFFECTS,
+                     RECONFIG_STEP_RANGE, ROOT_TOL_RANGE, STEP_RESOLUTION_RANGE,
+                     TRAJECTORY_METHODS, Accuracy, Command, Design, Effects, Limits,
+                     ModelInputError, Outputs, Part, step_resolution_ok, validate_inputs)
 from .scene import (ACCURACY_KEYS, COMMAND_KEYS, DESIGN_KEYS, EFFECT_KEYS, GRID_BOUNDS, GRID_KEYS,
                     LIMIT_KEYS, MAP_OUTPUT_KEYS, MAX_MAP_BYTES, MAX_REFINE_LEVELS,
                     MAX_VALUES_PER_PARAMETER, MIN_POINTS_PER_AXIS, OUTPUT_KEYS, PART_KEYS,
@@ -135,13 +136,19 @@ def scene_from_dict(raw, default_name: str = "sweep") -> Scene:
     accuracy = Accuracy(
         reconfig_step=_number(acc.get("reconfig_step", 0.01), "accuracy.reconfig_step"),
         root_tol=_number(acc.get("root_tol", 1e-12), "accuracy.root_tol"),
-        trajectory=acc.get("trajectory", Accuracy.trajectory))
+        trajectory=acc.get("trajectory", Accuracy.trajectory),
+        step_resolution=_number(acc.get("step_resolution", DEFAULT_STEP_RESOLUTION),
+                                "accuracy.step_resolution"))
     for key, (low, high) in (("reconfig_step", RECONFIG_STEP_RANGE),
                              ("root_tol", ROOT_TOL_RANGE)):
         value = getattr(accuracy, key)
         if not (math.isfinite(value) and low <= value <= high):
             raise SceneError(f"accuracy.{key}: must be in [{low:g}, {high:g}] rad, "
                              f"got {value!r}")
+    if not step_resolution_ok(accuracy.step_resolution):
+        low, high = STEP_RESOLUTION_RANGE
+        raise SceneError(f"accuracy.step_resolution: must be 0 (off) or in [{low:g}, {high:g}], "
+                         f"got {accuracy.step_resolution!r}")
     if accuracy.trajectory not in TRAJECTORY_METHODS:
         raise SceneError(f"accuracy.trajectory: {accuracy.trajectory!r} is not implemented "
                          f"(valid: {', '.join(TRAJECTORY_METHODS)}; 'discrete' means grid8)")

@@ -52,7 +52,7 @@ COMMAND_KEYS = ("f_left", "f_right")
 GRID_KEYS = ("h", "bounds")
 GRID_BOUNDS = ("reach",)
 LIMIT_KEYS = ("theta2_min_deg", "theta2_max_deg")
-ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory")
+ACCURACY_KEYS = ("reconfig_step", "root_tol", "trajectory", "step_resolution")
 EFFECT_KEYS = EFFECT_NAMES
 MAP_OUTPUT_KEYS = OUTPUT_NAMES
 OUTPUT_KEYS = MAP_OUTPUT_KEYS + ("save_maps", "manipulation", "scenario_a_top_k", "scenario_c")
@@ -218,7 +218,8 @@ class Scene:
             limits=dict(theta2_min_deg=self.limits.theta2_min_deg,
                         theta2_max_deg=self.limits.theta2_max_deg),
             accuracy=dict(reconfig_step=self.accuracy.reconfig_step,
-                          root_tol=self.accuracy.root_tol, trajectory=self.accuracy.trajectory),
+                          root_tol=self.accuracy.root_tol, trajectory=self.accuracy.trajectory,
+                          step_resolution=self.accuracy.step_resolution),
             effects={k: getattr(self.effects, k) for k in EFFECT_KEYS},
             item_order=list(ITEM_ORDER),
             # only when on / not the default, so that the hashes of configs without them stay

@@ -366,6 +366,16 @@ def solve_finger_of(dx, dy, finger, constants, solver, effects):
 
 
 @inner
+def solve_finger_branch(dx, dy, finger, constants, solver, effects):
+    """(first contact's mode, solve_finger_of's FingerState): the branch of the closing sequence
+    a grid point took, which the trajectories compare between the two ends of a step."""
+    first = closing_contact(dx, dy, finger, constants, effects)
+    final = settle(first, dx, dy, finger, solver, effects)
+    return first.mode, FingerState(final.mode, final.t1, final.t2, final.k1, final.k2,
+                                   first.tip_overlap)
+
+
+@inner
 def took_tip_path(mode, tip_contact):
     """A settled finger whose final state may lie on the tip path (D15): TIP_ONLY, PROXIMAL_TIP,
     or SLIPPED with tip_contact (the part lost by the tip). Its closing is not the rigid sweep

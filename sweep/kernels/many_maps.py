@@ -45,10 +45,9 @@ from .hand import (
 )
 from .meeting import rests_on_other_finger
 from .meeting_search import collide
-from .outcome import classify_point
+from .outcome import cage_score, classify_point
 from .one_map import (
     ALL_OUTPUTS,
-    cage_score,
     CONTAINED,
     finger_rows,
     finger_statics_at,
@@ -109,6 +108,7 @@ def gather_fingers(shared, m_lo, step, ncol, ny, h):
     gather_field(shared.k1, fingers.k1, m_lo, step, ncol)
     gather_field(shared.k2, fingers.k2, m_lo, step, ncol)
     gather_field(shared.tip_overlap, fingers.tip_overlap, m_lo, step, ncol)
+    gather_field(shared.first_event, fingers.first_event, m_lo, step, ncol)
     return xs, fingers
 
 

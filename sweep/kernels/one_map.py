@@ -18,7 +18,7 @@ from ..model import (
     END_STALLED,
     END_TIP_PREHENSION,
     INFEASIBLE,
-    RANGE_TOL,
+    PALM_TOL,
     REACHED,
     TRAJECTORY_GRID8,
     TRAJECTORY_SLIDING,
@@ -30,18 +30,14 @@ from .jit import entry, inner
 from .records import FingerState, LEFT, RIGHT, side_finger, with_forces
 from .streamline import streamline_ends
 from .finger_statics import finger_statics
-from .finger import closing_constants, solve_finger_of
+from .finger import closing_constants, solve_finger_branch
 from .hand import (
-    finger_polyline,
-    fingers_cross,
     friction_cones,
-    part_contained,
     part_in_equilibrium,
-    mouth_opening,
 )
 from .meeting import rests_on_other_finger
 from .meeting_search import collisions_of_map
-from .outcome import classify_point, point_energy
+from .outcome import cage_geometry, cage_score, classify_point, point_energy
 from .trajectories import trajectory_ends
 
 
@@ -92,7 +88,8 @@ def finger_rows(first, last, dxs, dys, finger, solver, effects, fingers, side):
     for j in range(first, last):
         dy = dys[j]
         for i in range(dxs.shape[0]):
-            s = solve_finger_of(dxs[i], dy, finger, constants, solver, effects)
+            first, s = solve_finger_branch(dxs[i], dy, finger, constants, solver, effects)
+            fingers.first_event[side, j, i] = first
             fingers.mode[side, j, i] = s.mode
             fingers.t1[side, j, i] = s.t1
             fingers.t2[side, j, i] = s.t2
@@ -237,33 +234,15 @@ def outcome_rows(xs, ys, finger, hand, springs, tip_contact, fingers, outs, forc
                 caging_score[j, i] = score
 
 
-@inner
-def cage_score(inside, opening, r):
-    """S = 1 - L_open / (2r) where the part is contained and L_open < 2r, else 0 (MODEL 8; an
-    exact tie L_open == 2r is not caged, model-notes D5). Stability is the caller's business:
-    S of a stable point is the caging score, of any reached point S_geo (MODEL 10)."""
-    if inside and opening < 2.0 * r - RANGE_TOL:
-        return 1.0 - opening / (2.0 * r)
-    return 0.0
-
-
-@inner
-def cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand):
-    """(contained, fingers cross, L_open) of the part at (x, y) between the fingers (MODEL 8)."""
-    left = finger_polyline(LEFT, t1l, t2l, finger.l1, finger.l2, hand.w)
-    right = finger_polyline(RIGHT, t1r, t2r, finger.l1, finger.l2, hand.w)
-    inside = part_contained(x, y, left, right)
-    intersect = fingers_cross(left, right)
-    opening = mouth_opening(left, right, intersect)
-    return inside, intersect, opening
-
-
 # ---------------------------------------------------------------------------------------------
 # The summary row (MODEL 8: Lambda, the caging area and the counts of the trajectories' ends)
 # ---------------------------------------------------------------------------------------------
 @inner
-def count_summary(outs, tip_overlap, score_sum, h, out):
-    """The per-map summary row, in the order of sweep.schema.SUMMARY."""
+def count_summary(outs, tip_overlap, score_sum, h, palm_row, out):
+    """The per-map summary row, in the order of sweep.schema.SUMMARY. The caging area is the
+    integral of the end score over the starts (MODEL 8) by the trapezoidal rule across the
+    palm line: where the grid's first row lies on it (`palm_row`), that row's starts stand for
+    half a cell (the part cannot start below the palm; model-notes D35)."""
     point_class = outs.point_class
     end_state = outs.end_state
     equilibrium = outs.equilibrium
@@ -273,7 +252,12 @@ def count_summary(outs, tip_overlap, score_sum, h, out):
     for n in range(out.shape[0]):
         out[n] = 0.0
     out[S_LAMBDA] = score_sum
-    out[S_CAGING_AREA] = score_sum * h * h
+    palm_sum = 0.0
+    if palm_row:
+        for i in range(nx):
+            if point_class[0, i] == REACHED and end_state[0, i] == END_CAGED:
+                palm_sum += outs.caging_score.flat[outs.end_index[0, i]]
+    out[S_CAGING_AREA] = (score_sum - 0.5 * palm_sum) * h * h
     for j in range(ny):
         for i in range(nx):
             c = point_class[j, i]
@@ -333,9 +317,10 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
         outs.end_index[:, :] = -1
         score_sum = np.nan  # no trajectories: Lambda does not exist
     elif solver.trajectory == TRAJECTORY_GRID8 or solver.trajectory == TRAJECTORY_SLIDING:
-        score_sum = trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack,
-                                    solver.trajectory == TRAJECTORY_SLIDING)
+        score_sum = trajectory_ends(outs, fingers.first_event, xs, ys, finger, solver, effects,
+                                    hand, stack, solver.trajectory == TRAJECTORY_SLIDING)
     else:
         score_sum = streamline_ends(outs, hand.h, stack, solver.streamline_step)
-    count_summary(outs, fingers.tip_overlap, score_sum, hand.h, summary)
+    count_summary(outs, fingers.tip_overlap, score_sum, hand.h,
+                  abs(ys[0] - finger.r) <= PALM_TOL, summary)
     summary[S_COLLISION_CHANGED] = n_collision_changed

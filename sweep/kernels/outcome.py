@@ -22,6 +22,7 @@ from .finger_statics import finger_energy, spring_energy
 from .finger import closing_constants, finger_effects, OVERLAP, solve_finger_of, took_tip_path
 from .meeting import collide_on_own_paths
 from .meeting_search import collide, collide_near, meeting_state, no_slide_context
+from .hand import finger_polyline, fingers_cross, mouth_opening, part_contained
 
 
 # ---------------------------------------------------------------------------------------------
@@ -71,6 +72,15 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     settled ones, and the energy falls as either angle grows: MODEL 6 with tensions >= 0 and
     no springs), and the meeting is not searched. `context`: hand.slide_context (the
     meeting found as on the grid) or meeting_search.no_slide_context() (meeting_search.collide)."""
+    c, e, exact, _, _ = hand_below(x, y, finger, solver, effects, hand, bound, context)
+    return c, e, exact
+
+
+@inner
+def hand_below(x, y, finger, solver, effects, hand, bound, context):
+    """Both fingers at world (x, y), collided, classified: (class, energy, exact, left,
+    right), each finger (mode, t1, t2, k1, k2); point_outcome_below's lower bound where the
+    settled fingers' energy is above `bound` (exact False, the fingers the settled ones)."""
     w = hand.w
     # (solve_finger's own body: the entry point would compile the finger's whole tree again)
     left = side_finger(finger, hand, LEFT)
@@ -83,21 +93,44 @@ def point_outcome_below(x, y, finger, solver, effects, hand, bound, context):
     if collision.on and (took_tip_path(sl.mode, effects.tip_contact)
                                   or took_tip_path(sr.mode, effects.tip_contact)):
         # on the fingers' own paths (D29); no lower bound: on the tip path t1 may grow
-        _, left, right = collide_on_own_paths(x, y, finger, solver, effects, hand, collision,
-                                              meeting_state(sl), meeting_state(sr))
-        return outcome_of(y, left, right, finger, hand, effects.joint_springs)
+        _, fl, fr = collide_on_own_paths(x, y, finger, solver, effects, hand, collision,
+                                         meeting_state(sl), meeting_state(sr))
+        c, e, exact = outcome_of(y, fl, fr, finger, hand, effects.joint_springs)
+        return c, e, exact, fl, fr
     if collision.on and not effects.joint_springs.on and hand.f_left >= 0.0 \
             and hand.f_right >= 0.0:
         c = classify_point(y, finger.r, sl.mode, sr.mode)
         if c != INFEASIBLE:  # (the effect does not change an infeasible point)
             e = point_energy(sl.t1, sl.t2, sr.t1, sr.t2, finger, hand, effects.joint_springs)
             if e > bound:
-                return c, e, False
+                return c, e, False, meeting_state(sl), meeting_state(sr)
     if not context[0]:
-        _, left, right = collide(finger, w, collision, sl, sr)
+        _, fl, fr = collide(finger, w, collision, sl, sr)
     else:
-        _, left, right = collide_near(finger, w, collision, context, sl, sr)
-    return outcome_of(y, left, right, finger, hand, effects.joint_springs)
+        _, fl, fr = collide_near(finger, w, collision, context, sl, sr)
+    c, e, exact = outcome_of(y, fl, fr, finger, hand, effects.joint_springs)
+    return c, e, exact, fl, fr
+
+
+@inner
+def cage_score(inside, opening, r):
+    """S = 1 - L_open / (2r) where the part is contained and L_open < 2r, else 0 (MODEL 8; an
+    exact tie L_open == 2r is not caged, model-notes D5). Stability is the caller's business:
+    S of a stable point is the caging score, of any reached point S_geo (MODEL 10)."""
+    if inside and opening < 2.0 * r - RANGE_TOL:
+        return 1.0 - opening / (2.0 * r)
+    return 0.0
+
+
+@inner
+def cage_geometry(x, y, t1l, t2l, t1r, t2r, finger, hand):
+    """(contained, fingers cross, L_open) of the part at (x, y) between the fingers (MODEL 8)."""
+    left = finger_polyline(LEFT, t1l, t2l, finger.l1, finger.l2, hand.w)
+    right = finger_polyline(RIGHT, t1r, t2r, finger.l1, finger.l2, hand.w)
+    inside = part_contained(x, y, left, right)
+    intersect = fingers_cross(left, right)
+    opening = mouth_opening(left, right, intersect)
+    return inside, intersect, opening
 
 
 @inner
@@ -110,3 +143,4 @@ def outcome_of(y, left, right, finger, hand, springs):
 
 
 NO_CLASS = np.int64(INFEASIBLE)
+

@@ -47,6 +47,7 @@ class SolverSettings(NamedTuple):
     root_tol: float         # width to which the stop is bracketed (rad)
     trajectory: int         # model.TRAJECTORY_SLIDING, TRAJECTORY_GRID8 or TRAJECTORY_CONTINUOUS
     streamline_step: float  # integrator step of the continuous method, in grid steps
+    step_resolution: float  # largest gap between the model's evaluations along a step (0: none)
 
 
 class TipContact(NamedTuple):
@@ -301,6 +302,7 @@ class FingerArrays(NamedTuple):
     k1: np.ndarray
     k2: np.ndarray
     tip_overlap: np.ndarray  # bool
+    first_event: np.ndarray  # int8: the closing sequence's first contact (kernels.finger codes)
 
 
 class OutcomeArrays(NamedTuple):
@@ -391,7 +393,8 @@ def wants_scenario_c(manip):
 def new_finger_arrays(n_fingers, ny, nx):
     shape = (n_fingers, ny, nx)
     return FingerArrays(np.empty(shape, dtype=np.int8), np.empty(shape), np.empty(shape),
-                        np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.bool_))
+                        np.empty(shape), np.empty(shape), np.empty(shape, dtype=np.bool_),
+                        np.empty(shape, dtype=np.int8))
 
 
 @entry

@@ -3,12 +3,22 @@ stops, by one of three methods (`SolverSettings.trajectory`, model-notes D16): g
 steepest descent over the 8 neighbours), sliding (the default: slides on the true energy where
 every grid neighbour is uphill, with a memo of the model's outcomes off the grid) or continuous
 (`streamline.py`).
+
+Grid8 and sliding move the part in straight steps between positions where the model was
+evaluated. Where the grid is coarser than `SolverSettings.step_resolution`, a step whose two ends
+could lie on either side of something narrower than the grid (its ends' first contacts made in
+different stages of the closing sequence, or any move of a slide) is sampled at that
+resolution: it is blocked where the energy rises above both ends (a wall: a band of vertex
+strikes, say) and it ends where the part leaves P_j (model-notes D35).
 """
 import math
 import numpy as np
 
 from typing import NamedTuple
 from ..model import (
+    PROXIMAL_ONLY,
+    TWO_PHALANX,
+    VERTEX,
     END_CAGED,
     END_EJECTION,
     END_NONE,
@@ -20,6 +30,7 @@ from ..model import (
 from .jit import entry, inner
 from .meeting_search import slide_context
 from .outcome import NO_CLASS, point_outcome_below
+from .finger import DISTAL_ON_LOWER_STOP, JOINT_STRIKE, PROXIMAL_THEN_TIP, TIP_ON_LOWER_STOP
 
 
 # ---------------------------------------------------------------------------------------------
@@ -189,6 +200,107 @@ def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
     return c, e
 
 
+# ---------------------------------------------------------------------------------------------
+# Steps that cannot cross what the part cannot cross (model-notes D35)
+# ---------------------------------------------------------------------------------------------
+# What a straight move of the part between two positions meets (step_check's first value).
+STEP_CLEAR, STEP_BLOCKED, STEP_LEAVES = 0, 1, 2
+
+
+@inner
+def step_check(x0, y0, e_top, x1, y1, resolution, finger, solver, effects, hand, memo, context):
+    """What the part meets moving straight from (x0, y0) to (x1, y1), the model evaluated at
+    points at most `resolution` apart (the two ends excluded): (kind, x, y). STEP_BLOCKED at
+    the first point whose energy is above `e_top` (a wall: the caller passes the higher of the
+    two ends' energies), STEP_LEAVES at the first point outside P_j, else STEP_CLEAR."""
+    length = math.hypot(x1 - x0, y1 - y0)
+    n = int(math.ceil(length / resolution - 1e-9)) if resolution > 0.0 else 1
+    for k in range(1, n):
+        t = k / n
+        x = x0 + (x1 - x0) * t
+        y = y0 + (y1 - y0) * t
+        c, e = outcome_at(x, y, e_top, finger, solver, effects, hand, memo, context)
+        if e > e_top:
+            return STEP_BLOCKED, x, y
+        if c != REACHED:
+            return STEP_LEAVES, x, y
+    return STEP_CLEAR, x1, y1
+
+
+@inner
+def closing_stage(first):
+    """Which stage of the closing sequence (MODEL 4) made a finger's first contact, from the
+    first contact's mode (kernels.finger codes): 0 the proximal link, 1 the distal link in the
+    rigid sweep, 2 a vertex strike in the rigid sweep, 3 the distal closing with the proximal
+    folded, or none. A band of vertex strikes lies between regions of different stages."""
+    if first == PROXIMAL_ONLY or first == TWO_PHALANX or first == PROXIMAL_THEN_TIP:
+        return 0
+    if first == DISTAL_ON_LOWER_STOP:
+        return 1
+    if first == VERTEX or first == JOINT_STRIKE or first == TIP_ON_LOWER_STOP:
+        return 2
+    return 3
+
+
+@inner
+def same_stages(p, q, nx, first):
+    """Whether each finger made its first contact in the same stage of the closing sequence at
+    the flat grid points p and q (`first`: the map's FingerArrays.first_event)."""
+    jp = p // nx
+    ip = p - jp * nx
+    jq = q // nx
+    iq = q - jq * nx
+    for side in range(2):
+        if closing_stage(first[side, jp, ip]) != closing_stage(first[side, jq, iq]):
+            return False
+    return True
+
+
+@inner
+def checked_neighbour(energy, point_class, first, xs, ys, i, j, h, resolution, finger, solver,
+                      effects, hand, memo, context):
+    """The grid step from (j, i) with step checks: the steepest strictly lower feasible
+    neighbour (downhill_neighbour's rule) whose step is clear, trying the others in order of
+    slope where a step is blocked. Returns (kind, flat index): STEP_CLEAR and the neighbour;
+    STEP_LEAVES and the grid point nearest to where the part left P_j; (STEP_BLOCKED, -1)
+    where no neighbour is lower or every step is blocked.
+    A step whose ends' first contacts were made in the same stages is not sampled."""
+    ny, nx = energy.shape
+    here = energy[j, i]
+    diagonal = h * math.sqrt(2.0)
+    tried = 0
+    for _ in range(8):
+        best = -1
+        best_slope = 0.0
+        for n in range(8):
+            if tried & (1 << n):
+                continue
+            ii = i + NEIGHBOUR_DI[n]
+            jj = j + NEIGHBOUR_DJ[n]
+            if ii < 0 or ii >= nx or jj < 0 or jj >= ny:
+                continue
+            if point_class[jj, ii] == INFEASIBLE:
+                continue
+            distance = h if (NEIGHBOUR_DI[n] == 0 or NEIGHBOUR_DJ[n] == 0) else diagonal
+            slope = (here - energy[jj, ii]) / distance
+            if slope > best_slope:
+                best_slope = slope
+                best = n
+        if best < 0:
+            break
+        tried |= 1 << best
+        q = (j + NEIGHBOUR_DJ[best]) * nx + i + NEIGHBOUR_DI[best]
+        if same_stages(j * nx + i, q, nx, first):
+            return STEP_CLEAR, q
+        kind, x, y = step_check(xs[i], ys[j], here, xs[q % nx], ys[q // nx], resolution,
+                                finger, solver, effects, hand, memo, context)
+        if kind == STEP_CLEAR:
+            return STEP_CLEAR, q
+        if kind == STEP_LEAVES:
+            return STEP_LEAVES, nearest_grid_point(x, y, xs, ys, h)
+    return STEP_BLOCKED, -1
+
+
 @entry
 def downhill_neighbour(energy, point_class, i, j, h):
     """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
@@ -284,12 +396,14 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     """Slide the part from grid point (j0, i0), where every neighbour is uphill, on the true
     energy (module docstring). Returns (flat index, SLIDE_REJOINS | SLIDE_EJECTS | SLIDE_STALLS,
     points written to `path`): the grid point where the slide rejoins the grid (lower than the
-    start, or stable), or the grid point nearest to where the part leaves P_j or stops. `path`:
-    an array (n, 2) that receives the world positions of the slide (pictures, tests; (0, 2):
-    not recorded); `memo`: the map's OutcomeMemo (of no capacity: none); `context`: the map's
-    hand.slide_context, or hand.no_slide_context()."""
+    start, or stable), or the grid point nearest to where the part leaves P_j or stops.
+    `path`: an array (n, 2) that receives the world positions of the slide (pictures, tests;
+    (0, 2): not recorded); `memo`: the map's OutcomeMemo (of no capacity: none); `context`:
+    the map's hand.slide_context, or hand.no_slide_context()."""
     ny, nx = energy.shape
     h = hand.h
+    resolution = solver.step_resolution
+    checks = step_checks_on(solver, h)
     e_start = energy[j0, i0]
     x = xs[i0]
     y = ys[j0]
@@ -302,6 +416,14 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
         e, c, ux, uy = lowest_on_circle(x, y, rho, np.bool_(SLIDE_CASCADE_THOROUGH[stage]),
                                         scratch,
                                         finger, solver, effects, hand, memo, context)
+        if e < e_here - SLIDE_REL * abs(e_here) and checks:
+            kind, gx, gy = step_check(x, y, e_here, x + rho * ux, y + rho * uy, resolution,
+                                      finger, solver, effects, hand, memo, context)
+            if kind == STEP_BLOCKED:
+                e = np.inf
+            elif kind == STEP_LEAVES:
+                n_path = record(path, n_path, gx, gy)
+                return nearest_grid_point(gx, gy, xs, ys, h), SLIDE_EJECTS, n_path
         if not (e < e_here - SLIDE_REL * abs(e_here)):
             stage += 1
             if stage == len(SLIDE_CASCADE_RADIUS):
@@ -318,7 +440,8 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
             # the part left P_j, or the grid (a user window's edge)
             return nearest_grid_point(x, y, xs, ys, h), SLIDE_EJECTS, n_path
         # rejoin the grid at the lowest corner of the cell below the start's energy (a stable
-        # corner ends the trajectory whatever its energy)
+        # corner ends the trajectory whatever its energy); with step checks, only a corner the
+        # part could move to in a straight line
         ia = int(math.floor(fi))
         ja = int(math.floor(fj))
         best = -1
@@ -328,15 +451,61 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
             qj = ja + (corner >> 1)
             if qi < 0 or qi >= nx or qj < 0 or qj >= ny or point_class[qj, qi] != REACHED:
                 continue
+            if not equilibrium[qj, qi] and not energy[qj, qi] < e_best:
+                continue
+            if checks and step_check(x, y, max(e_here, energy[qj, qi]), xs[qi], ys[qj],
+                                     resolution, finger, solver, effects, hand, memo,
+                                     context)[0] != STEP_CLEAR:
+                continue
             if equilibrium[qj, qi]:
                 best = qj * nx + qi
                 break
-            if energy[qj, qi] < e_best:
-                e_best = energy[qj, qi]
-                best = qj * nx + qi
+            e_best = energy[qj, qi]
+            best = qj * nx + qi
         if best >= 0:
             return best, SLIDE_REJOINS, n_path
     return nearest_grid_point(x, y, xs, ys, h), SLIDE_STALLS, n_path
+
+
+@inner
+def step_checks_on(solver, h):
+    """Whether a map of spacing h samples its steps (the grid is coarser than the resolution)."""
+    return solver.step_resolution > 0.0 and h > solver.step_resolution
+
+
+# What the next step from a grid point gives (`successor`'s first value): the trajectory goes on
+# (END_NONE: it does not end there), or it ends, with one of the END_* states.
+GOES_ON = END_NONE
+
+
+@entry
+def successor(energy, point_class, equilibrium, first, xs, ys, i, j, finger, solver, effects,
+              hand, sliding, path, memo, context):
+    """Where the trajectory goes from the REACHED, not stable grid point (j, i) (module
+    docstring): (GOES_ON, the next grid point, points written to `path` by a slide), or (an
+    END_* state, the end point, points written). The one rule of a step, for trajectory_ends
+    and for pictures."""
+    ny, nx = energy.shape
+    h = hand.h
+    if step_checks_on(solver, h):
+        kind, q = checked_neighbour(energy, point_class, first, xs, ys, i, j, h,
+                                    solver.step_resolution, finger, solver, effects, hand, memo,
+                                    context)
+        if kind == STEP_CLEAR:
+            return GOES_ON, q, 0
+        if kind == STEP_LEAVES:
+            return END_EJECTION, q, 0
+    else:
+        q = downhill_neighbour(energy, point_class, i, j, h)
+        if q >= 0:
+            return GOES_ON, q, 0
+    if not sliding:
+        return END_STALLED, j * nx + i, 0
+    q, kind, n = slide_successor(energy, point_class, equilibrium, xs, ys, i, j, finger, solver,
+                                 effects, hand, path, memo, context)
+    if kind == SLIDE_REJOINS:
+        return GOES_ON, q, n
+    return (END_EJECTION if kind == SLIDE_EJECTS else END_STALLED), q, n
 
 
 @inner
@@ -349,11 +518,11 @@ def record(path, n, x, y):
 
 
 @entry
-def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding):
+def trajectory_ends(outs, first, xs, ys, finger, solver, effects, hand, stack, sliding):
     """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
-    point of P_j (REACHED points): grid8, or with `sliding` the sliding method (module
-    docstring). `stack` is scratch of size >= number of points. Returns the map score Lambda
-    (MODEL 8)."""
+    point of P_j (REACHED points): grid8, or with `sliding` the sliding
+    method (module docstring). `first`: the map's FingerArrays.first_event (step checks).
+    `stack` is scratch of size >= number of points. Returns the map score Lambda (MODEL 8)."""
     ny, nx = outs.energy.shape
     size = ny * nx
     # flat views, made once: `.flat[p]` made an iterator, a reference-count pair, per point
@@ -363,14 +532,14 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
     for p in range(size):
         end_state[p] = END_NONE
         end_index[p] = -1
-    memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown at the first slide
+    memo = new_memo(np.int64(1), hand.f_left == hand.f_right)  # grown when first needed
     p0 = np.int64(0)  # (a literal 0 compiled trajectories_from a second time, for Literal[int](0))
     while p0 < size:
-        # the trajectories run with one memo until a slide needs a larger one; the memo is
+        # the trajectories run with one memo until a step needs a larger one; the memo is
         # replaced here, between calls, since replacing a record of arrays inside the loop cost
         # a reference-count pair per array at every point (docs/performance.md)
-        p0 = trajectories_from(p0, outs, end_state, end_index, xs, ys, finger, solver, effects,
-                               hand, stack, sliding, memo)
+        p0 = trajectories_from(p0, outs, end_state, end_index, first, xs, ys, finger, solver,
+                               effects, hand, stack, sliding, memo)
         if p0 < size:
             memo = memo_for_slide(memo)
     score_sum = 0.0
@@ -381,18 +550,19 @@ def trajectory_ends(outs, xs, ys, finger, solver, effects, hand, stack, sliding)
 
 
 @inner
-def trajectories_from(p_start, outs, end_state, end_index, xs, ys, finger, solver, effects, hand,
-                      stack, sliding, memo):
+def trajectories_from(p_start, outs, end_state, end_index, first, xs, ys, finger, solver,
+                      effects, hand, stack, sliding, memo):
     """trajectory_ends from flat point p_start on with this memo: fills end_state and end_index
-    (flat views of outs') and returns the number of points, or the point whose trajectory
-    stopped before a slide because the memo has no room (memo_has_room); nothing of that
-    trajectory is written, so the caller gives it a larger memo and starts there again (the
-    memo only caches outcomes: the trajectory is the same)."""
+    (flat views of outs') and returns the number of points, or the point whose
+    trajectory stopped before a step that evaluates the model because the memo has no room
+    (memo_has_room); nothing of that trajectory is written, so the caller gives it a larger
+    memo and starts there again (the memo only caches outcomes: the trajectory is the same)."""
     energy = outs.energy
     point_class = outs.point_class
     equilibrium = outs.equilibrium
     caged = outs.caged
     h = hand.h
+    checks = step_checks_on(solver, h)
     ny, nx = energy.shape
     size = ny * nx
     no_path = np.empty((0, 2))
@@ -423,21 +593,15 @@ def trajectories_from(p_start, outs, end_state, end_index, xs, ys, finger, solve
                 state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
                 last = p
                 break
-            q = downhill_neighbour(energy, point_class, i, j, h)
-            if q < 0:
-                if not sliding:
-                    state = END_STALLED
-                    last = p
-                    break
-                if not memo_has_room(memo):
-                    return p0
-                q, kind, _ = slide_successor(energy, point_class, equilibrium, xs, ys, i, j,
-                                             finger, solver, effects, hand, no_path, memo,
-                                             context)
-                if kind != SLIDE_REJOINS:
-                    state = END_EJECTION if kind == SLIDE_EJECTS else END_STALLED
-                    last = q
-                    break
+            if not memo_has_room(memo) and (
+                    checks or (sliding and downhill_neighbour(energy, point_class, i, j, h) < 0)):
+                return p0
+            state, q, _ = successor(energy, point_class, equilibrium, first, xs, ys, i, j,
+                                           finger, solver, effects, hand, sliding, no_path,
+                                           memo, context)
+            if state != GOES_ON:
+                last = q
+                break
             p = q
         for s in range(depth):
             end_state[stack[s]] = state

@@ -36,8 +36,8 @@ from ..kernels.trajectories import (
     downhill_neighbour,
     max_slide_points,
     new_memo,
-    SLIDE_REJOINS,
-    slide_successor,
+    GOES_ON,
+    successor,
 )
 from ..kernels.hand import finger_polyline
 from ..kernels.meeting_search import no_slide_context
@@ -86,14 +86,17 @@ def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
     return path
 
 
-def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
-    """World points (n, 2) of the sliding trajectory from `start` (kernels/trajectories.py, the
-    default rule): grid steps, and where every neighbour is uphill the slide on the true
-    energy; and the flat index of the point where it ends (the map's `end_index`)."""
+def sliding_points(start: int, m, stable: np.ndarray,
+                   sliding: bool = True) -> tuple[np.ndarray, int]:
+    """World points (n, 2) of the trajectory from `start` (kernels/trajectories.py, `successor`:
+    the default rule, or grid8 without `sliding`): grid steps, and where every neighbour is
+    uphill the slide on the true energy; and the flat index of the point where it ends (the
+    map's `end_index`)."""
 
     energy = np.asarray(m.fields["energy"], dtype=np.float64)
     point_class = np.asarray(m.fields["point_class"])
     equilibrium = np.asarray(m.fields["equilibrium"], dtype=bool)
+    first = np.asarray(m.fields["first_event"])
     x, y = np.asarray(m.x, float), np.asarray(m.y, float)
     ny, nx = energy.shape
     h = _grid_step(m)
@@ -107,16 +110,13 @@ def sliding_points(start: int, m, stable: np.ndarray) -> tuple[np.ndarray, int]:
         points.append((x[i], y[j]))
         if point_class[j, i] != REACHED or stable[j, i]:
             break
-        q = downhill_neighbour(energy, point_class, i, j, h)
-        if q < 0:
-            q, kind, n = slide_successor(energy, point_class, equilibrium, x, y, i, j, finger,
-                                         solver, blocks, hand, buf, new_memo(0, False),
-                                         no_slide_context())
-            points.extend(map(tuple, buf[1:n]))
-            if kind != SLIDE_REJOINS:
-                p = int(q)
-                break
+        state, q, n = successor(energy, point_class, equilibrium, first, x, y, i, j, finger,
+                                   solver, blocks, hand, sliding, buf, new_memo(0, False),
+                                   no_slide_context())
+        points.extend(map(tuple, buf[1:n]))
         p = int(q)
+        if state != GOES_ON:
+            break
     return np.array(points), p
 
 
@@ -437,7 +437,7 @@ def _draw_trajectories(ax, v: dict) -> list:
     """Downhill trajectories from a sparse lattice of moving starts, and the end points of all
     moving trajectories of P_j sized by how many points end there; returns legend handles."""
     energy, point_class = v["energy"], v["point_class"]
-    ny, nx, h, x, y = v["ny"], v["nx"], v["h"], v["x"], v["y"]
+    ny, nx, x, y = v["ny"], v["nx"], v["x"], v["y"]
     reached, stable, caged, moving = v["reached"], v["stable"], v["caged"], v["moving"]
     ends, end_count, m = v["ends"], v["end_count"], v["map"]
     starts = sample_starts(reached, moving, TARGET_TRAJECTORIES)
@@ -452,12 +452,9 @@ def _draw_trajectories(ax, v: dict) -> list:
             pts = streamline_points(int(s), energy, point_class, m.fields["equilibrium"],
                                     np.asarray(m.fields["caging_score"]) > 0, x, y)
             path = pts
-        elif method == "sliding":
-            pts, _ = sliding_points(int(s), m, stable)
-            path = pts
         else:
-            path = trajectory_path(int(s), energy, point_class, stable, h)
-            pts = np.column_stack([flat_x[path], flat_y[path]])
+            pts, _ = sliding_points(int(s), m, stable, sliding=method == "sliding")
+            path = pts
         if len(path) < 2:
             continue
         segments.append(pts)
