@@ -43,25 +43,13 @@ from ..compute.manipulation import (BATCH_ROWS, PARAMETER_NAMES, ManipulationChu
 from ..config.scene import GROUP_AXES, ITEM_ORDER, REDUCTION_ROW_BYTES, STORE_DIMS, Scene
 from ..model import DEFAULT_OUTPUTS
 from ..schema import (
-    COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, SUMMARY, SUMMARY_FIELDS, summary_field_on,
+    A_DIMS, COUNT_FIELDS, PART_DIMS, REFINE_FIELDS, STORE_FIELDS, SUMMARY_FIELDS,
+    summary_field_on,
 )
 
 KIND_PART = "sweep-part"
 KIND_SHARD = "sweep-shard"
 KIND_STORE = "sweep-store"
-
-FIELD_ATTRS = {f.name: f.attrs() for f in SUMMARY}  # declared once, in sweep.schema
-
-COORD_ATTRS = {
-    "l1": dict(long_name="proximal link length l1", units="length (model units)"),
-    "l2": dict(long_name="distal link length l2", units="length (model units)"),
-    "r1": dict(long_name="proximal pulley radius r1", units="length (model units)"),
-    "r2": dict(long_name="distal pulley radius r2", units="length (model units)"),
-    "w": dict(long_name="palm width w", units="length (model units)"),
-    "r": dict(long_name="part (disc) radius r", units="length (model units)"),
-    "mu": dict(long_name="static friction coefficient mu_s between part and links", units="1"),
-    "command": dict(long_name="index of the actuation command (see f_left, f_right)", units="1"),
-}
 
 GRID_NOTE = ("each map uses its own design's whole-reach grid (MODEL 8): x = i h, y = r + j h; "
              "its edge is unreached, so trajectories never leave through a window edge")
@@ -104,7 +92,7 @@ def write_item_file(path: Path, scene: Scene, start: int, stop: int, data: np.nd
     with atomic_file(path) as f:
         write_coordinate(f, "item", np.arange(start, stop, dtype=np.int64),
                          dict(long_name="work item index (ITEM_ORDER numbering)", units="1"))
-        write_coordinate(f, "w", scene.widths, COORD_ATTRS["w"])
+        write_coordinate(f, "w", scene.widths, _attrs("w"))
         write_coordinate(f, "field", np.array(SUMMARY_FIELDS, dtype=object),
                          dict(long_name="summary field"))
         ds = f.create_dataset("summaries", data=data, fletcher32=True,
@@ -245,25 +233,24 @@ def write_store(path: Path, scene: Scene, item_files: Sequence[ItemFile], timing
         for d in dims:
             if d == "command":
                 write_coordinate(f, d, np.arange(len(scene.commands), dtype=np.int32),
-                                 COORD_ATTRS[d])
+                                 _attrs(d))
             else:
-                write_coordinate(f, d, np.array(scene.values[d], dtype=np.float64), COORD_ATTRS[d])
+                write_coordinate(f, d, np.array(scene.values[d], dtype=np.float64), _attrs(d))
         if "command" in dims:
             for k in ("f_left", "f_right"):
                 write_variable(f, k, np.array([getattr(c, k) for c in scene.commands]),
-                               ("command",), dict(long_name=f"tendon tension of the "
-                                                  f"{k[2:]} finger", units="force (model units)"))
+                               STORE_FIELDS[k].dims, _attrs(k))
         # held open while they are filled: closing a variable writes out its chunk cache, and
         # every later group would read, inflate and deflate those chunks again
         out = {name: create_variable(f, name, scene.store_shape,
                                      np.int32 if name in COUNT_FIELDS else np.float64, dims,
-                                     FIELD_ATTRS[name])
+                                     _attrs(name))
                for name in fields}
         if scene.manipulation:
             _write_manipulation_coordinates(f, scene)
             for name in candidate_variables(scene):
                 out[name] = create_variable(f, name, [scene.axis_len(d) for d in A_DIMS],
-                                            np.float64, A_DIMS, MANIPULATION_ATTRS[name])
+                                            np.float64, A_DIMS, _attrs(name))
         h2 = scene.h * scene.h
         for group, items in iter_groups(scene, item_files, partial(_block_items, scene)):
             arrays = store_arrays(scene, items[0], one_group=True)
@@ -278,8 +265,7 @@ def write_store(path: Path, scene: Scene, item_files: Sequence[ItemFile], timing
                     out[name + "_area"][at] = value * h2
         if scene.manipulation:
             for name, value in part_arrays(scene, item_files).items():
-                write_variable(f, name, value, PART_ARRAY_DIMS.get(name, ("r", "mu")),
-                               MANIPULATION_ATTRS[name])
+                write_variable(f, name, value, STORE_FIELDS[name].dims, _attrs(name))
         attrs = dict(
             title=f"energy-map sweep summaries: {scene.name}",
             sweep_file_kind=KIND_STORE, name=scene.name,
@@ -489,46 +475,6 @@ def assemble_manipulation(scene: Scene, item_files: Sequence[ItemFile], start: i
                                           for b in _in_item_order(item_files, start, stop))
 
 
-MANIPULATION_ATTRS = {
-    "manipulation_a": dict(
-        long_name="Scenario A manipulation metric of the candidate (l1, l2, r1, r2) for the part "
-                  "(r, mu): sum over poses of the largest origin-centred circle inside the hull "
-                  "of its forces over every palm width and the commands F_left + F_right = 2 "
-                  "(MODEL 10); grows as 1/h^2", units="force (per unit tension, unitless)"),
-    "manipulation_a_area": dict(long_name="manipulation_a * h^2 (resolution-independent)",
-                                units="force x length^2 (unitless)"),
-    "manipulation_c": dict(
-        long_name="Scenario C (friction modulation) manipulation metric of the candidate (l1, "
-                  "l2, r1, r2) for the part (r, mu): as manipulation_a, with each finger's "
-                  "contact friction switched independently between the part's mu and "
-                  "manipulation_scenario_c_mu_low (the four friction pairs; the palm keeps mu; "
-                  "MODEL 10); never below manipulation_a", units="force (per unit tension, "
-                  "unitless)"),
-    "manipulation_c_area": dict(long_name="manipulation_c * h^2 (resolution-independent)",
-                                units="force x length^2 (unitless)"),
-    "manipulation_b": dict(
-        long_name="Scenario B manipulation metric of the part: sum over poses of the largest "
-                  "origin-centred circle inside the hull of the forces of every geometry of the "
-                  "sweep at F_left = F_right = 1 (MODEL 10)", units="force (unitless)"),
-    "manipulation_b_area": dict(long_name="manipulation_b * h^2", units="force x length^2"),
-    "manipulation_b_uncrossed": dict(
-        long_name="manipulation_b counting only forces of poses where the fingers do not cross "
-                  "(the rest comes from crossed fingers, MODEL 10)", units="force (unitless)"),
-    "manipulation_b_poses": dict(long_name="poses with a positive Scenario B value", units="1"),
-    "parameter_usage": dict(
-        long_name="Scenario B parameter usage: per parameter, the range among the geometries "
-                  "whose forces are hull vertices over its search range, averaged over the poses "
-                  "with a positive value (MODEL 10); NaN if none", units="1"),
-    "manipulation_b_pose_value": dict(
-        long_name="Scenario B value of each pose x = pose_column h, y = r + pose_row h (0 where "
-                  "no hull surrounds the origin; outside a part's lattice too)",
-        units="force (unitless)"),
-}
-
-
-#: Dimensions of the Scenario A (and C) variables, and of the per-part ones other than (r, mu).
-A_DIMS = ("l1", "l2", "r1", "r2", "r", "mu")
-
 SCENARIO_C_NOTE = ("Scenario C: Scenario A's gripper whose fingers each present either the "
                    "part's mu or manipulation_scenario_c_mu_low (friction modulation, MODEL 10); "
                    "per pose the hull over every width, command and friction pair (mu_left, "
@@ -539,8 +485,6 @@ def candidate_variables(scene: Scene) -> tuple[str, ...]:
     """The store's variables per candidate (l1, l2, r1, r2) and part: Scenario A's, and C's."""
     names = ("manipulation_a", "manipulation_a_area")
     return names + (("manipulation_c", "manipulation_c_area") if scene.scenario_c else ())
-PART_ARRAY_DIMS = {"parameter_usage": ("r", "mu", "parameter"),
-                   "manipulation_b_pose_value": ("r", "mu", "pose_row", "pose_column")}
 
 
 #: Kept points of a part's reductions read from all its blocks at once when they are merged: the
@@ -659,12 +603,11 @@ def write_bytes(scene: Scene, block_items: int) -> int:
 
 def _write_manipulation_coordinates(f, scene: Scene) -> None:
     n_max = int(scene.lattice_columns().max())
-    write_coordinate(f, "parameter", np.array(PARAMETER_NAMES, dtype=object),
-                     dict(long_name="design parameter of the parameter usage"))
+    write_coordinate(f, "parameter", np.array(PARAMETER_NAMES, dtype=object), _attrs("parameter"))
     write_coordinate(f, "pose_row", np.arange(scene.lattice_rows() + 1, dtype=np.int32),
-                     dict(long_name="pose row j: part centre y = r + j h", units="1"))
+                     _attrs("pose_row"))
     write_coordinate(f, "pose_column", np.arange(-n_max, n_max + 1, dtype=np.int32),
-                     dict(long_name="pose column i: part centre x = i h", units="1"))
+                     _attrs("pose_column"))
 
 
 def assemble(scene: Scene, item_files: Sequence[ItemFile], start: int = 0,
@@ -679,6 +622,11 @@ def assemble(scene: Scene, item_files: Sequence[ItemFile], start: int = 0,
 
 
 # ---------------------------------------------------------------------------------------------
+def _attrs(name: str) -> dict:
+    """A store variable's attributes, from its one declaration (KeyError if it has none)."""
+    return STORE_FIELDS[name].attrs()
+
+
 def _str(v) -> str:
     return v.decode() if isinstance(v, bytes) else str(v)
 
