@@ -236,7 +236,7 @@ class Scene:
         out = {}
         if self.manipulation:
             out["manipulation"] = True
-        if self.scenario_c:  # (C's metrics are in the block files: a part of the identity)
+        if self.scenario_c:  # (C's metrics are in the item files: a part of the identity)
             out["scenario_c"] = {"mu_low": self.scenario_c_mu_low}
         if self.outputs != Outputs():
             out["on"] = self.outputs.names_on()
@@ -284,8 +284,8 @@ class Scene:
         per-part reductions (KEPT_PER_POSE points of REDUCTION_ROW_BYTES per pose of every
         part's lattice, both reductions). A chunk holds that for its own items (its shard,
         assembled and rendered in memory before it is written); a one-machine run writes its
-        store a block and a part at a time, holding less (`sweep.storage.store.write_bytes`, what
-        a merge checks)."""
+        store an item file and a part at a time, holding less
+        (`sweep.storage.store.write_bytes`, what a merge checks)."""
         total = 2 * self.n_maps * len(SUMMARY_FIELDS) * 8
         if self.manipulation:
             # the Scenario B entries of a sub-chunk's cells (batch.manipulation_cells)
