@@ -94,11 +94,13 @@ explore: $(STAMP)
 	SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_EXPLORE=1 $(PY) -m pytest -q \
 		$(PYTEST_PARALLEL) --durations=10 $$(grep -l '@given' tests/test_*.py)
 
-# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), and the layers
-# that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.
+# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), the layers that
+# imports obey (tests/test_layers.py, docs/architecture.md), docs/model.md's references to the
+# code, and every store variable declared in the schema (tests/test_store_schema.py); CI runs it.
+LINT_TESTS = tests/test_layers.py tests/test_model_references.py tests/test_store_schema.py
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -p no:cacheprovider tests/test_layers.py tests/test_model_references.py
+	$(PY) -m pytest -q -p no:cacheprovider $(LINT_TESTS)
 
 # The sweep as a SLURM array job on a real single-node cluster (as root; installs slurm-wlm and
 # munge if missing; stops its daemons and removes its files whatever happens). Under 2 minutes.
