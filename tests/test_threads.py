@@ -13,6 +13,7 @@ from sweep.compute.batch import summarize_cells
 from sweep.compute.threads import numba_threads
 from sweep.compute.maps import compute_map
 from sweep.compute.threads import over_ranges, split, split_by_cost
+from sweep.config.chunks import balanced_boundaries, ranges_between
 from sweep.model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 
 
@@ -44,6 +45,16 @@ def test_split_by_cost_cuts_nearest_the_share():
     assert split_by_cost([1, 1, 1, 100, 1, 1], 2) == [(0, 3), (3, 6)]
     assert split_by_cost([100, 1, 1, 1], 2) == [(0, 1), (1, 4)]
     assert split_by_cost([1] * 10, 3) == [(0, 3), (3, 7), (7, 10)]
+
+
+def test_threads_cut_ranges_by_the_chunks_rule():
+    """One rule for cutting items into ranges (sweep/config/chunks.py): on an exact tie the cut
+    goes after the item that crosses the share, and equal counts put the larger ranges first,
+    as for cluster chunks."""
+    assert split_by_cost([1, 2, 1], 2) == [(0, 2), (2, 3)]          # both cuts 1 from the share
+    assert split(5, 2) == [(0, 3), (3, 5)]
+    for costs, parts in (([3, 1, 4, 1, 5, 9, 2, 6], 3), ([0, 0, 0], 2), ([1, 2, 1], 2)):
+        assert split_by_cost(costs, parts) == ranges_between(balanced_boundaries(costs, parts))
 
 
 def test_every_range_runs_once_on_several_threads():
