@@ -96,8 +96,10 @@ explore: $(STAMP)
 
 # pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), the layers that
 # imports obey (tests/test_layers.py, docs/architecture.md), docs/model.md's references to the
-# code, and every store variable declared in the schema (tests/test_store_schema.py); CI runs it.
-LINT_TESTS = tests/test_layers.py tests/test_model_references.py tests/test_store_schema.py
+# code, every store variable declared in the schema (tests/test_store_schema.py), and every
+# decision cited ("model-notes D14") one that exists (tests/test_model_notes.py); CI runs it.
+LINT_TESTS = tests/test_layers.py tests/test_model_references.py tests/test_store_schema.py \
+             tests/test_model_notes.py
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q -p no:cacheprovider $(LINT_TESTS)
