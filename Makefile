@@ -21,11 +21,10 @@ define install_into_venv
 	touch $@
 endef
 
-# pip installs bin/sweep as a copy: an edit of it installs again.
-$(RUN_STAMP): pyproject.toml bin/sweep
+$(RUN_STAMP): pyproject.toml
 	$(call install_into_venv,.)
 
-$(STAMP): pyproject.toml bin/sweep
+$(STAMP): pyproject.toml
 	$(call install_into_venv,.[test])
 
 install: $(STAMP)

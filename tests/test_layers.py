@@ -24,7 +24,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "sweep"
 #: (a scene: what a run is) needs the vocabulary alone, so it sits below the computation: sizing
 #: a run in memory or checking a grid never reaches into kernels.
 LAYERS = (
-    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.files")),
+    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.files",
+                    "sweep.interrupts")),
     ("config", ("sweep.config",)),
     ("kernels", ("sweep.kernels",)),
     ("one map / a batch of maps", ("sweep.compute",)),
