@@ -34,7 +34,7 @@ install: $(STAMP)
 # each (resumes if killed, a no-op when complete), then one report that puts the two side by
 # side (figures, tables, report.md; a no-op when up to date). One scene after the other: side
 # by side, each on every core, the whole job took 0.75x de6810f's time on a fresh clone
-# against 0.63x one after the other (docs/performance.md, 2026-11-27 night).
+# against 0.63x one after the other (docs/performance-log.md, 2026-11-27 night).
 run: $(RUN_STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
 	$(VENV)/bin/sweep run configs/paper-collision.yaml --out results/paper-collision.h5

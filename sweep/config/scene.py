@@ -72,7 +72,7 @@ MAX_VALUES_PER_PARAMETER = 100_000
 MAX_MAP_BYTES = 4 * 1024**3
 #: The merged manipulation reductions (sweep.compute.manipulation.PartReduction): a kept point is 12
 #: floats and a geometry index; a pose keeps its hull's vertices and near points, a handful
-#: (measured: docs/performance.md, "Memory").
+#: (measured: docs/performance-log.md, "Memory").
 REDUCTION_ROW_BYTES = 12 * 8 + 8
 KEPT_PER_POSE = 4
 
@@ -269,7 +269,7 @@ class Scene:
                                               max(self.values["l2"]), r, self.h)
                          for r in self.values["r"]], dtype=np.int64)
 
-    # --- memory (every array a run holds; docs/performance.md, "Memory") ---------------------
+    # --- memory (every array a run holds; docs/performance-log.md, "Memory") ---------------------
     def cell_bytes(self) -> int:
         """What one thread holds for the scene's largest cell (grid.cell_bytes): the largest
         l1, l2 and r, every width."""

@@ -149,7 +149,7 @@ def compute_items_with_manipulation(scene: Scene, start: int, stop: int):
 
 #: Sub-chunks in flight at once: while one's kernels run, another's single-threaded work (its
 #: manipulation reductions' Python side, reading and writing files) fills the cores
-#: (docs/performance.md, "Sub-chunks in flight").
+#: (docs/performance-log.md, "Sub-chunks in flight").
 IN_FLIGHT = 2
 
 
