@@ -272,7 +272,7 @@ def kernel_names_used(source: str) -> set[tuple[str, str]]:
 def inner_kernels_used_outside(root: Path = ROOT) -> list[str]:
     inner = inner_kernels(root / "sweep" / "kernels")
     found = []
-    paths = [path for folder in ("sweep", "tests", "scripts")
+    paths = [path for folder in ("sweep", "tests", "scripts", "docs/notes")
              for path in root.joinpath(folder).rglob("*.py")]
     for path in sorted(paths):
         if path.parent == root / "sweep" / "kernels":
