@@ -80,7 +80,7 @@ test: $(STAMP)
 # large example counts, the fuzz campaign's 23,000 cases, the end-to-end oracle comparisons at
 # full size and the recipe's toy effect compiled. The same draws on every run, so a pass is
 # reproducible; the slowest tests are listed at the end. Not in CI (.ci/run): about half an hour
-# on 2 cores (README, "Tests").
+# on 2 cores (CONTRIBUTING.md, "Tests").
 LONG_PROFILES = SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_LONG_ORACLES=1 \
 	SWEEP_LONG_RECIPE=1 SWEEP_LONG_COMPILE=1
 test-long: $(STAMP)
