@@ -49,20 +49,20 @@ def numba_threads(n: int | None):
         numba.set_num_threads(old)
 
 
-def split(n: int, parts: int) -> list[tuple[int, int]]:
-    """At most `parts` consecutive non-empty ranges (first, last) covering 0 .. n - 1, as equal
+def split(n: int, n_ranges: int) -> list[tuple[int, int]]:
+    """At most `n_ranges` consecutive non-empty ranges (first, last) covering 0 .. n - 1, as equal
     as they come (`config.chunks.even_ranges`, the one rule)."""
-    return even_ranges(n, min(max(parts, 1), n)) if n > 0 else []
+    return even_ranges(n, min(max(n_ranges, 1), n)) if n > 0 else []
 
 
-def split_by_cost(costs, parts: int) -> list[tuple[int, int]]:
-    """At most `parts` consecutive non-empty ranges (first, last) covering 0 .. len(costs) - 1
+def split_by_cost(costs, n_ranges: int) -> list[tuple[int, int]]:
+    """At most `n_ranges` consecutive non-empty ranges (first, last) covering 0 .. len(costs) - 1
     whose summed costs are as equal as whole items allow (`config.chunks.balanced_boundaries`,
-    the one rule: cut k nearest k / parts of the total)."""
+    the one rule: cut k nearest k / n_ranges of the total)."""
     costs = np.asarray(costs, dtype=np.float64).reshape(-1)
     if costs.size == 0:
         return []
-    return ranges_between(balanced_boundaries(costs, min(max(parts, 1), costs.size)))
+    return ranges_between(balanced_boundaries(costs, min(max(n_ranges, 1), costs.size)))
 
 
 def over_ranges(n: int, task: Callable[[int, int], None],
@@ -71,8 +71,8 @@ def over_ranges(n: int, task: Callable[[int, int], None],
     count of threads (in this thread when it is 1); with `costs` (one per item), ranges of
     equal summed cost. An exception in a task is raised here once every task has stopped."""
     threads = numba.get_num_threads()
-    parts = threads * ranges_per_thread
-    ranges = split(n, parts) if costs is None else split_by_cost(costs, parts)
+    n_ranges = threads * ranges_per_thread
+    ranges = split(n, n_ranges) if costs is None else split_by_cost(costs, n_ranges)
     if threads == 1 or len(ranges) <= 1:
         for first, last in ranges:
             task(first, last)
