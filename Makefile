@@ -21,11 +21,10 @@ define install_into_venv
 	touch $@
 endef
 
-# pip installs bin/sweep as a copy: an edit of it installs again.
-$(RUN_STAMP): pyproject.toml bin/sweep
+$(RUN_STAMP): pyproject.toml
 	$(call install_into_venv,.)
 
-$(STAMP): pyproject.toml bin/sweep
+$(STAMP): pyproject.toml
 	$(call install_into_venv,.[test])
 
 install: $(STAMP)
@@ -35,7 +34,7 @@ install: $(STAMP)
 # each (resumes if killed, a no-op when complete), then one report that puts the two side by
 # side (figures, tables, report.md; a no-op when up to date). One scene after the other: side
 # by side, each on every core, the whole job took 0.75x de6810f's time on a fresh clone
-# against 0.63x one after the other (docs/performance.md, 2026-11-27 night).
+# against 0.63x one after the other (docs/performance-log.md, 2026-11-27 night).
 run: $(RUN_STAMP)
 	$(VENV)/bin/sweep run configs/paper.yaml --out results/paper.h5
 	$(VENV)/bin/sweep run configs/paper-collision.yaml --out results/paper-collision.h5
@@ -81,7 +80,7 @@ test: $(STAMP)
 # large example counts, the fuzz campaign's 23,000 cases, the end-to-end oracle comparisons at
 # full size and the recipe's toy effect compiled. The same draws on every run, so a pass is
 # reproducible; the slowest tests are listed at the end. Not in CI (.ci/run): about half an hour
-# on 2 cores (README, "Tests").
+# on 2 cores (CONTRIBUTING.md, "Tests").
 LONG_PROFILES = SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_LONG_ORACLES=1 \
 	SWEEP_LONG_RECIPE=1 SWEEP_LONG_COMPILE=1
 test-long: $(STAMP)
@@ -94,11 +93,15 @@ explore: $(STAMP)
 	SWEEP_LONG_PROPERTIES=1 SWEEP_LONG_FUZZ=1 SWEEP_EXPLORE=1 $(PY) -m pytest -q \
 		$(PYTEST_PARALLEL) --durations=10 $$(grep -l '@given' tests/test_*.py)
 
-# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), and the layers
-# that imports obey (tests/test_layers.py, docs/architecture.md); CI runs it.
+# pyflakes, pycodestyle and bugbear checks (configuration in pyproject.toml), the layers that
+# imports obey (tests/test_layers.py, docs/architecture.md), docs/model.md's references to the
+# code, every store variable declared in the schema (tests/test_store_schema.py), and every
+# decision cited ("model-notes D14") one that exists (tests/test_model_notes.py); CI runs it.
+LINT_TESTS = tests/test_layers.py tests/test_model_references.py tests/test_store_schema.py \
+             tests/test_model_notes.py
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -p no:cacheprovider tests/test_layers.py tests/test_model_references.py
+	$(PY) -m pytest -q -p no:cacheprovider $(LINT_TESTS)
 
 # The sweep as a SLURM array job on a real single-node cluster (as root; installs slurm-wlm and
 # munge if missing; stops its daemons and removes its files whatever happens). Under 2 minutes.

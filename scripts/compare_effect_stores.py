@@ -85,7 +85,7 @@ def compare_partial(base_path, parts_dir, l1_best=None):
     from pathlib import Path
 
     from sweep.schema import SUMMARY_FIELDS
-    from sweep.storage.store import read_item_file
+    from sweep.storage.itemfile import read_item_file
 
     base = read_store(base_path)
     # store dims (l1 l2 r1 r2 w r mu) -> item order (l1 l2 r [command] r1 r2 mu) x w

@@ -1,5 +1,5 @@
 """Where the sweep's time goes inside the kernels: `perf record` of the paper-sweep sample with
-the jitted functions named (docs/performance.md, "Where the sweep's time goes").
+the jitted functions named (docs/performance-log.md, "Where the sweep's time goes").
 
     .venv/bin/python scripts/profile_kernels.py [--cells 64] [--collision] [--out perf.data]
     perf report -i perf.data --no-children --sort sym

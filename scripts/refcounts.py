@@ -1,5 +1,5 @@
 """How many reference-count calls (NRT_incref, NRT_decref) the sweep's kernels make, and which
-kernel makes them: every call counted, not sampled (docs/performance.md, 2026-11-27 night).
+kernel makes them: every call counted, not sampled (docs/performance-log.md, 2026-11-27 night).
 
     .venv/bin/python scripts/refcounts.py [--cells 8] [--collision]
 

@@ -4,7 +4,9 @@ A `Field` names a quantity, its dtype, its dimensions, its units and CF attribut
 output it belongs to. The kernels index the summary row by the positions derived here
 (`SUMMARY_INDEX`, frozen into them as constants), `sweep.compute.maps` builds a map's fields from
 the point fields, `sweep.storage.mapfile` and `sweep.storage.store` write them with these
-attributes, and docs/outputs.md is generated from this table (`python -m sweep.schema`).
+attributes; the store's coordinates and its manipulation and refinement variables are declared
+here too (`STORE_FIELDS`: a store writes no variable that is not), and docs/outputs.md is
+generated from these tables (`python -m sweep.schema`).
 
 Outputs (MODEL 9: work only for what is asked): `energy` (configurations, modes, energy, class),
 `equilibrium` (part equilibrium), `caging` (containment, L_open, trajectories, scores) and
@@ -263,6 +265,91 @@ REFINE_FIELDS = (
 REFINE = {f.name: f for f in REFINE_FIELDS}
 
 
+# ---------------------------------------------------------------------------------------------
+# The store's coordinates and its other variables (sweep.storage.store): the summary fields
+# above on the store's dimensions, and these
+# ---------------------------------------------------------------------------------------------
+MODEL_LENGTH = "length (model units)"
+_FORCE = "force (per unit tension, unitless)"
+
+STORE_COORDINATES = (
+    Field("l1", "float64", ("l1",), "proximal link length l1", MODEL_LENGTH),
+    Field("l2", "float64", ("l2",), "distal link length l2", MODEL_LENGTH),
+    Field("r1", "float64", ("r1",), "proximal pulley radius r1", MODEL_LENGTH),
+    Field("r2", "float64", ("r2",), "distal pulley radius r2", MODEL_LENGTH),
+    Field("w", "float64", ("w",), "palm width w", MODEL_LENGTH),
+    Field("r", "float64", ("r",), "part (disc) radius r", MODEL_LENGTH),
+    Field("mu", "float64", ("mu",),
+          "static friction coefficient mu_s between part and links", "1"),
+    Field("command", "int32", ("command",),
+          "index of the actuation command (see f_left, f_right)", "1"),
+)
+#: Per command, when a store has several (its `command` dimension).
+COMMAND_FIELDS = tuple(
+    Field(name, "float64", ("command",), f"tendon tension of the {side} finger",
+          "force (model units)")
+    for name, side in (("f_left", "left"), ("f_right", "right")))
+
+#: Dimensions of the Scenario A (and C) variables: per candidate (l1, l2, r1, r2) and part.
+A_DIMS = ("l1", "l2", "r1", "r2", "r", "mu")
+_B_DIMS = ("r", "mu")
+
+#: The manipulation metric's coordinates and variables (`outputs: {manipulation: true}`, MODEL 10).
+MANIPULATION_COORDINATES = (
+    Field("parameter", "str", ("parameter",), "design parameter of the parameter usage",
+          output="manipulation"),
+    Field("pose_row", "int32", ("pose_row",), "pose row j: part centre y = r + j h", "1",
+          output="manipulation"),
+    Field("pose_column", "int32", ("pose_column",), "pose column i: part centre x = i h", "1",
+          output="manipulation"),
+)
+MANIPULATION_FIELDS = (
+    Field("manipulation_a", "float64", A_DIMS,
+          "Scenario A manipulation metric of the candidate (l1, l2, r1, r2) for the part "
+          "(r, mu): sum over poses of the largest origin-centred circle inside the hull "
+          "of its forces over every palm width and the commands F_left + F_right = 2 "
+          "(MODEL 10); grows as 1/h^2", _FORCE, output="manipulation"),
+    Field("manipulation_a_area", "float64", A_DIMS,
+          "manipulation_a * h^2 (resolution-independent)", "force x length^2 (unitless)",
+          output="manipulation"),
+    Field("manipulation_c", "float64", A_DIMS,
+          "Scenario C (friction modulation) manipulation metric of the candidate (l1, "
+          "l2, r1, r2) for the part (r, mu): as manipulation_a, with each finger's "
+          "contact friction switched independently between the part's mu and "
+          "manipulation_scenario_c_mu_low (the four friction pairs; the palm keeps mu; "
+          "MODEL 10); never below manipulation_a", _FORCE, output="scenario_c"),
+    Field("manipulation_c_area", "float64", A_DIMS,
+          "manipulation_c * h^2 (resolution-independent)", "force x length^2 (unitless)",
+          output="scenario_c"),
+    Field("manipulation_b", "float64", _B_DIMS,
+          "Scenario B manipulation metric of the part: sum over poses of the largest "
+          "origin-centred circle inside the hull of the forces of every geometry of the "
+          "sweep at F_left = F_right = 1 (MODEL 10)", "force (unitless)", output="manipulation"),
+    Field("manipulation_b_area", "float64", _B_DIMS, "manipulation_b * h^2",
+          "force x length^2", output="manipulation"),
+    Field("manipulation_b_uncrossed", "float64", _B_DIMS,
+          "manipulation_b counting only forces of poses where the fingers do not cross "
+          "(the rest comes from crossed fingers, MODEL 10)", "force (unitless)",
+          output="manipulation"),
+    Field("manipulation_b_poses", "int32", _B_DIMS, "poses with a positive Scenario B value",
+          "1", output="manipulation"),
+    Field("parameter_usage", "float64", _B_DIMS + ("parameter",),
+          "Scenario B parameter usage: per parameter, the range among the geometries "
+          "whose forces are hull vertices over its search range, averaged over the poses "
+          "with a positive value (MODEL 10); NaN if none", "1", output="manipulation"),
+    Field("manipulation_b_pose_value", "float64", _B_DIMS + ("pose_row", "pose_column"),
+          "Scenario B value of each pose x = pose_column h, y = r + pose_row h (0 where "
+          "no hull surrounds the origin; outside a part's lattice too)",
+          "force (unitless)", output="manipulation"),
+)
+MANIPULATION = {f.name: f for f in MANIPULATION_FIELDS}
+
+#: Every variable a store may hold (coordinates included), by name: what the store writes and
+#: what docs/outputs.md lists.
+STORE_FIELDS = {f.name: f for f in STORE_COORDINATES + COMMAND_FIELDS + SUMMARY
+                + MANIPULATION_COORDINATES + MANIPULATION_FIELDS + REFINE_FIELDS}
+
+
 def markdown_table() -> str:
     """docs/outputs.md's tables, generated from this module."""
     lines = ["# Outputs", "",
@@ -293,6 +380,19 @@ def markdown_table() -> str:
                                  if f.flags else "")
         dims = "part" if f.dims == PART_DIMS else "design, part"
         lines.append(f"| `{f.name}` | {f.dtype} | {dims} | {f.units or ''} | {meaning} |")
+    lines += ["", "## Coordinates and per-command variables of a store", "",
+              "The summary fields above are variables on the store's dimensions, `l1, l2, r1, "
+              "r2, w, r, mu` (plus `command` when a sweep has several commands).", "",
+              "| name | dtype | dims | units | meaning |", "|---|---|---|---|---|"]
+    for f in STORE_COORDINATES + COMMAND_FIELDS:
+        lines.append(f"| `{f.name}` | {f.dtype} | {', '.join(f.dims)} | {f.units or ''} | "
+                     f"{f.long_name} |")
+    lines += ["", "## Manipulation variables of a store (`outputs: {manipulation: true}`)", "",
+              "Output `scenario_c`: only with `outputs: {scenario_c: ...}` as well.", "",
+              "| name | dtype | dims | units | output | meaning |", "|---|---|---|---|---|---|"]
+    for f in MANIPULATION_COORDINATES + MANIPULATION_FIELDS:
+        lines.append(f"| `{f.name}` | {f.dtype} | {', '.join(f.dims)} | {f.units or ''} | "
+                     f"{f.output} | {f.long_name} |")
     return "\n".join(lines) + "\n"
 
 

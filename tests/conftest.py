@@ -22,9 +22,10 @@ settings.register_profile(
 settings.load_profile("sweep")
 
 DATA = Path(__file__).parent / "data"
-#: Modules whose tests compute nothing (`make lint` runs test_layers.py alone): a session of
-#: only these does not compile the kernels.
-COMPUTE_FREE = {"test_layers.py", "test_model_references.py"}
+#: Modules whose tests compute nothing (`make lint` runs them alone: the Makefile's LINT_TESTS):
+#: a session of only these does not compile the kernels.
+COMPUTE_FREE = {"test_layers.py", "test_model_references.py", "test_store_schema.py",
+                "test_model_notes.py"}
 
 
 def _xdist_worker(config) -> bool:

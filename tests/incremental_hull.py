@@ -10,7 +10,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from sweep.compute.manipulation import PARAMETER_NAMES, HullReduction, _n_blocks
+from sweep.compute.manipulation import PARAMETER_NAMES, HullReduction, _pose_ranges
 from sweep.kernels import hull
 from sweep.kernels.hull import (
     N_COLS, N_PARAMS, PMAX, PMIN, STATUS_NONFINITE, STATUS_OK, STATUS_OVERFLOW,
@@ -177,7 +177,7 @@ class IncrementalHull(HullReduction):
         todo = counts
         while True:
             reduction_add(self.points, self.first, self.n_hull, self.n_kept, fx, fy, todo,
-                                np.int64(geometry_index), params, status, _n_blocks())
+                                np.int64(geometry_index), params, status, _pose_ranges())
             overflow = status == hull.STATUS_OVERFLOW
             if not overflow.any():
                 return
@@ -210,7 +210,7 @@ class IncrementalHull(HullReduction):
             out = IncrementalHull.empty(self.n_poses, capacity)
             reduction_merge(self.points, self.first, self.n_kept, other.points,
                                   other.first, other.n_kept, out.points, out.first, out.n_hull,
-                                  out.n_kept, status, _n_blocks())
+                                  out.n_kept, status, _pose_ranges())
             if not (status == hull.STATUS_OVERFLOW).any():
                 return out
             capacity *= 2

@@ -68,10 +68,10 @@ def fake_items(scene, start, stop):
     return out
 
 
-def block_in_memory(scene, items, start=0):
-    """Summaries of items [start, start + len(items)) as a block held in memory (no file)."""
+def item_file_in_memory(scene, items, start=0):
+    """Summaries of items [start, start + len(items)) as an item file held in memory (no file)."""
     from sweep import __version__
-    from sweep.storage.store import KIND_PART, ItemFile
+    from sweep.storage.itemfile import KIND_PART, ItemFile
 
     return ItemFile(path=None, kind=KIND_PART, start=start, stop=start + len(items),
                  config_hash=scene.config_hash, version=__version__, frozen=scene.frozen(),

@@ -797,7 +797,7 @@ def test_a_part_touching_the_joint_within_round_off_rests_on_the_open_proximal_l
 
 # ---------------------------------------------------------------------------------------------
 # Graze and tangency decisions at the edges (model-notes D30): each with a case of the scan
-# (scripts/edge_scan.py) or of the edge draws, against brute-force geometry, the reference or
+# (docs/notes/edge_scan.py) or of the edge draws, against brute-force geometry, the reference or
 # the model's own invariance, never against the kernel's earlier output
 # ---------------------------------------------------------------------------------------------
 #: theta2_min = -89.9999999 deg: B's circle about J touches the disc from outside (|d| = l1 + r)

@@ -29,8 +29,10 @@ def test_every_subcommand_answers_help_and_is_in_performance_md(module, capsys):
 
 def test_every_script_named_exists():
     named = set()
-    for path in [*DOCS, ROOT / "Makefile", *ROOT.glob("configs/*.yaml"), *ROOT.glob("tests/*.py")]:
-        named |= {(path.name, m) for m in re.findall(r"scripts/[\w-]+\.py", path.read_text())}
+    for path in [*DOCS, ROOT / "Makefile", *ROOT.glob("configs/*.yaml"), *ROOT.glob("tests/*.py"),
+                 *ROOT.glob("*.md")]:
+        named |= {(path.name, m) for m in re.findall(r"(?:scripts|docs/notes)/[\w-]+\.py",
+                                                     path.read_text())}
     missing = sorted((where, m) for where, m in named if not (ROOT / m).is_file())
     assert not missing
 
@@ -40,3 +42,13 @@ def test_no_machine_specific_paths_in_docs():
     found = [(path.name, n, line.strip()) for path in DOCS
              for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
     assert not found
+
+
+def test_every_tool_in_scripts_is_in_contributings_table():
+    """scripts/ holds tools, each listed with its purpose in CONTRIBUTING.md's table; finished
+    investigations live in docs/notes/, beside the docs that report them."""
+    table = (ROOT / "CONTRIBUTING.md").read_text()
+    tools = [p for p in sorted((ROOT / "scripts").iterdir()) if p.is_file()]
+    assert tools and not [p.name for p in tools if f"| `scripts/{p.name}` |" not in table]
+    notes = [p.name for p in sorted((ROOT / "docs" / "notes").glob("*.py"))]
+    assert notes and not [n for n in notes if f"`{n}`" not in table]

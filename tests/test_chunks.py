@@ -8,23 +8,23 @@ from sweep.config.chunks import (
 )
 
 
-@pytest.mark.parametrize("n_items, n_parts, expected", [
+@pytest.mark.parametrize("n_items, n_ranges, expected", [
     pytest.param(1, 1, [(0, 1)], id="one-item"),
     pytest.param(5, 5, [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5)], id="chunk-size-1"),
     pytest.param(10, 3, [(0, 4), (4, 7), (7, 10)], id="uneven"),
     pytest.param(12, 4, [(0, 3), (3, 6), (6, 9), (9, 12)], id="even"),
 ])
-def test_even_ranges(n_items, n_parts, expected):
-    assert even_ranges(n_items, n_parts) == expected
+def test_even_ranges(n_items, n_ranges, expected):
+    assert even_ranges(n_items, n_ranges) == expected
 
 
-@pytest.mark.parametrize("n_items, n_parts", [
-    pytest.param(3, 4, id="more-parts-than-items"),
-    pytest.param(3, 0, id="zero-parts"),
+@pytest.mark.parametrize("n_items, n_ranges", [
+    pytest.param(3, 4, id="more-ranges-than-items"),
+    pytest.param(3, 0, id="zero-ranges"),
 ])
-def test_even_ranges_refuses(n_items, n_parts):
+def test_even_ranges_refuses(n_items, n_ranges):
     with pytest.raises(ValueError):
-        even_ranges(n_items, n_parts)
+        even_ranges(n_items, n_ranges)
 
 
 @pytest.mark.parametrize("n_items, n_chunks, group, costs, expected", [
@@ -105,6 +105,6 @@ def test_balanced_split_is_never_worse_than_counting(costs, n):
     heaviest = max(sum(costs[b[k]:b[k + 1]]) for k in range(n))
     even = [s for s, _ in even_ranges(len(costs), n)] + [len(costs)]
     heaviest_even = max(sum(costs[even[k]:even[k + 1]]) for k in range(n))
-    # nearest-to-target cuts: each part exceeds its share by at most one item's cost
+    # nearest-to-target cuts: each range exceeds its share by at most one item's cost
     assert heaviest <= sum(costs) / n + 2 * max(costs) + 1e-9
     assert heaviest <= heaviest_even + 2 * max(costs) + 1e-9

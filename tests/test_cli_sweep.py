@@ -27,7 +27,8 @@ from sweep.cli import register
 from sweep.runs.rundir import SingleRun, prepare_parts_dir
 from sweep.config.parse import scene_from_dict
 from sweep.runs.slurm import sbatch_script
-from sweep.storage.store import read_item_file, read_store
+from sweep.storage.itemfile import read_item_file
+from sweep.storage.store import read_store
 from sweep_cases import tiny, write_config
 
 DATA = Path(__file__).resolve().parent / "data"

@@ -33,6 +33,7 @@ import os
 import shutil
 import subprocess
 import sys
+import re
 import tempfile
 import time
 from collections import Counter
@@ -669,23 +670,26 @@ def test_configs_through_the_cli(name, lib, cases, baselines, tmp_path):
 # ---------------------------------------------------------------------------------------------
 # 5. A real process: Ctrl-C at any moment of start-up, exit codes on the real streams
 # ---------------------------------------------------------------------------------------------
-SWEEP = Path(sys.executable).parent / "sweep"      # the installed command (bin/sweep)
-#: Python's own initialisation, before any line of bin/sweep runs: a Ctrl-C while it creates
-#: the standard streams ends in its "Fatal Python error" (docs/sweeps.md, "Failure modes").
-PYTHON_CORE_INIT = "Python runtime state: core initialized"
-#: ... and a Ctrl-C after that, while Python compiles the launcher's code, is raised by the
-#: check for signals at its very first instruction, before its `try`: Python prints this and
-#: ends by the signal (found by a longer spray; docs/sweeps.md).
-PYTHON_FIRST_INSTRUCTION = ['Traceback (most recent call last):',
-                            '  File "<string>", line 0, in <module>', 'KeyboardInterrupt']
+SWEEP = Path(sys.executable).parent / "sweep"      # the installed command (pip's console script)
 INTERRUPT_CASES = 200 if LONG else 6
+#: A frame of the program's main function in a traceback, and the source line Python shows.
+PROGRAM_MAIN = re.compile(r'File "[^"]*sweep/program\.py", line \d+, in main\n +(.*)')
 
 
-def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
+def program_ran(err: str) -> bool:
+    """Whether a traceback on stderr went through the program's main beyond its first line (a
+    signal that lands as main is entered is raised at its `def` line, before its first
+    statement, the `try` of its guard)."""
+    return any(not line.startswith("def main(") for line in PROGRAM_MAIN.findall(err))
+
+
+def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_before_the_program(lib, tmp_path):
     """SIGINT at random moments from the exec of `sweep run` to well into its work (the
-    imports, the config, the kernels): the process ends with one line and exit code 130, or
-    by the signal before Python handles it (silently), or it had finished; never a traceback
-    (but Python's own, before bin/sweep runs) and never a half-written store."""
+    imports, the config, the kernels): once the program runs, the process ends with one line
+    and exit code 130, or it had finished (a signal while Python shuts down ends the process
+    silently, its store complete); before it runs (Python's start-up, the console script's
+    imports), it ends the way Python ends it, and nothing is written. Never a half-written
+    store."""
     import random
     import signal
 
@@ -702,30 +706,43 @@ def test_ctrl_c_at_any_moment_of_start_up_is_one_line_or_silent(lib, tmp_path):
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=120)
         lines = [ln for ln in err.splitlines() if ln.strip()]
-        if PYTHON_CORE_INIT in err:
-            outcomes["python core init"] += 1
-            continue
-        if proc.returncode == -signal.SIGINT and lines == PYTHON_FIRST_INSTRUCTION:
-            outcomes["python before the launcher's first line"] += 1
-            continue
-        assert "Traceback" not in err, err
         if proc.returncode == 0:
             outcomes["finished"] += 1
-            assert out.exists()
-        elif proc.returncode == -signal.SIGINT:
-            outcomes["killed before Python handles SIGINT"] += 1
-            assert not lines, err
-        else:
+            assert out.exists() and not lines, err
+        elif proc.returncode == 130 and lines[:1] and lines[0].startswith("sweep: interrupted"):
             outcomes["interrupted"] += 1
-            assert proc.returncode == 130, (proc.returncode, err)
-            assert len(lines) == 1 and lines[0].startswith("sweep: interrupted"), err
+            assert len(lines) == 1, err
             if out.exists():  # the signal came after the store was renamed into place
                 outcomes["interrupted after the store was complete"] += 1
                 from sweep.storage.store import read_store
                 assert read_store(out).variables  # whole: a store is only written by a rename
+        elif out.exists():
+            # silently by the signal once Python, shutting down, has given SIGINT back to the
+            # system: the command had finished
+            outcomes["killed as Python ended, the store complete"] += 1
+            assert proc.returncode == -signal.SIGINT and not lines, err
+            from sweep.storage.store import read_store
+            assert read_store(out).variables
+        else:
+            # Python's own ending: silently by the signal, its traceback, its fatal error
+            outcomes["before the program ran"] += 1
+            assert not program_ran(err), err
+            assert not (tmp_path / f"o{k}.h5.parts").exists(), err
         assert not list(tmp_path.glob(f".o{k}.h5.tmp*"))
     OUTCOMES.update({f"ctrl-c:{k}": v for k, v in outcomes.items()})
     assert outcomes["interrupted"] > 0
+
+
+def test_a_traceback_through_the_running_program_is_told_from_one_before_it():
+    """The spray's rule above, on tracebacks of both kinds."""
+    head = 'Traceback (most recent call last):\n  File "/v/bin/sweep", line 8, in <module>\n'
+    entered = head + '    sys.exit(main())\n  File "/v/sweep/program.py", line 13, in main\n' \
+        '    def main(argv=None) -> None:\nKeyboardInterrupt\n'
+    running = head + '    sys.exit(main())\n  File "/v/sweep/program.py", line 22, in main\n' \
+        '    cli(args=argv, prog_name="sweep")\n  File "/v/click/core.py", line 1, in f\n'
+    importing = head + '    from sweep.program import main\n' \
+        '  File "/v/sweep/interrupts.py", line 26, in <module>\n    import signal\n'
+    assert not program_ran(entered) and not program_ran(importing) and program_ran(running)
 
 
 @pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
@@ -737,14 +754,14 @@ def test_an_interrupt_in_a_weakref_callback_is_delivered_again_not_printed(signa
     code = f"""
 import signal, sys, time, weakref
 import sweep.program as program
-from sweep.cli.common import Terminated
+from sweep.interrupts import Terminated, deliver_again, raise_terminated
 try:
     program.main(["--version"])                # installs the hook, then drops signals
 except SystemExit:
     pass
-assert sys.unraisablehook is program._unraisable
+assert sys.unraisablehook is deliver_again
 signal.signal(signal.SIGINT, signal.default_int_handler)   # as while a command runs
-signal.signal(signal.SIGTERM, program._terminated)
+signal.signal(signal.SIGTERM, raise_terminated)
 class Cached:
     pass
 def callback(ref):
@@ -762,7 +779,7 @@ except KeyboardInterrupt as exc:
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=_clean_env(), timeout=60)
     assert proc.stderr == "", proc.stderr
-    expected = "_Terminated" if signame == "SIGTERM" else "KeyboardInterrupt"
+    expected = "Terminated" if signame == "SIGTERM" else "KeyboardInterrupt"
     assert proc.stdout.splitlines()[-1] == f"delivered again as {expected}"
 
 
@@ -877,24 +894,3 @@ def test_a_refused_plot_leaves_no_folder_of_the_map_behind(tmp_path):
     assert res.exit_code == 2, res.output
     assert "z-blocker is a file, not a directory" in res.output
     assert sorted(p.name for p in tmp_path.iterdir()) == ["z-blocker"]
-
-
-def test_an_interrupt_that_python_wraps_while_the_program_is_imported_is_one_line_and_exit_130(
-        tmp_path):
-    """bin/sweep's own guard, around `import site` and the import of `sweep.program` (whose
-    standard-library imports come before the program's handling): a Ctrl-C that Python wraps in
-    a RuntimeError there (a class attribute's __set_name__, as in `platform`) is one line and
-    exit 130 too. The interrupted module is `signal`, which `sweep.program` imports and Python's
-    start-up does not."""
-    (tmp_path / "signal.py").write_text(
-        "class Interrupted:\n"
-        "    def __set_name__(self, owner, name):\n"
-        "        raise KeyboardInterrupt\n"
-        "class Handlers:\n"
-        "    sigint = Interrupted()\n")
-    env = {**_clean_env(), "PYTHONPATH": str(tmp_path)}
-    proc = subprocess.run([str(SWEEP), "--version"], capture_output=True, text=True, env=env,
-                          timeout=60)
-    assert proc.returncode == 130, proc.stderr
-    assert proc.stdout == ""
-    assert proc.stderr == "sweep: interrupted; nothing was written\n", proc.stderr

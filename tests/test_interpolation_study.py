@@ -1,7 +1,8 @@
-"""Interpolation in energy map space (sweep.compute.interpolation, scripts/interpolation_study.py):
-a design on a corner reproduces that corner's map, an energy linear in the design is
-interpolated exactly, the caged flag is a strict weighted majority, the caging answer of a true
-map's fields is `compute_map`'s, and the script runs end to end on a small config.
+"""Interpolation in energy map space (docs/notes/interpolation.py and the study that uses it,
+docs/notes/interpolation_study.py): a design on a corner reproduces that corner's map, an energy
+linear in the design is interpolated exactly, the caged flag is a strict weighted majority, the
+caging answer of a true map's fields is `compute_map`'s, and the script runs end to end on a
+small config.
 """
 from __future__ import annotations
 
@@ -12,12 +13,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sweep.compute.interpolation import (FIELDS, caging_of_fields, corner_offsets,
-                                         corner_weights, interpolate_fields)
 from sweep.compute.maps import compute_map
 from sweep.model import END_CAGED, EJECT, REACHED, UNREACHED, Design, Grid, Part
 
 ROOT = Path(__file__).resolve().parents[1]
+NOTES = ROOT / "docs" / "notes"        # the study and its module, beside the doc that reports it
+sys.path.insert(0, str(NOTES))
+from interpolation import (  # noqa: E402 (from docs/notes/, on the path above)
+    FIELDS, caging_of_fields, corner_offsets, corner_weights, interpolate_fields,
+)
 
 
 def synthetic_corner(rng, shape) -> dict:
@@ -130,7 +134,6 @@ def test_the_study_script_runs_on_a_small_config(tmp_path, capsys):
                                                                   "l1: [1.2, 1.6, 2.0]")
     config = tmp_path / "small3.yaml"
     config.write_text(text)
-    sys.path.insert(0, str(ROOT / "scripts"))
     import interpolation_study
 
     out = tmp_path / "study.csv"

@@ -24,7 +24,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "sweep"
 #: (a scene: what a run is) needs the vocabulary alone, so it sits below the computation: sizing
 #: a run in memory or checking a grid never reaches into kernels.
 LAYERS = (
-    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.files")),
+    ("vocabulary", ("sweep", "sweep.model", "sweep.schema", "sweep.grid", "sweep.files",
+                    "sweep.interrupts")),
     ("config", ("sweep.config",)),
     ("kernels", ("sweep.kernels",)),
     ("one map / a batch of maps", ("sweep.compute",)),
@@ -271,7 +272,7 @@ def kernel_names_used(source: str) -> set[tuple[str, str]]:
 def inner_kernels_used_outside(root: Path = ROOT) -> list[str]:
     inner = inner_kernels(root / "sweep" / "kernels")
     found = []
-    paths = [path for folder in ("sweep", "tests", "scripts")
+    paths = [path for folder in ("sweep", "tests", "scripts", "docs/notes")
              for path in root.joinpath(folder).rglob("*.py")]
     for path in sorted(paths):
         if path.parent == root / "sweep" / "kernels":

@@ -88,7 +88,7 @@ def test_a_merge_that_does_not_fit_is_refused_before_anything_is_written(tmp_pat
 
 
 def test_streamed_merge_of_chunks_equals_the_one_pass_merge():
-    """ManipulationChunk.merge_stream (one block at a time, what the store's assembly uses)
+    """ManipulationChunk.merge_stream (one item file at a time, what the store's assembly uses)
     gives the hulls, values and usage of merge_all and of the whole run at once."""
     cells = np.array([[1.4, 0.8, 0.12, 0.10, 0.4, 0.4], [1.4, 0.8, 0.16, 0.14, 0.4, 0.4],
                       [1.2, 1.2, 0.08, 0.06, 0.4, 0.4], [1.0, 0.8, 0.2, 0.1, 0.8, 0.4]])

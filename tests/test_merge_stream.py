@@ -1,6 +1,6 @@
-"""The store is written one block, one geometry group and one range of a part's poses at a time
-(issue P13, scale: a merge's memory stays flat as the sweep grows, docs/performance.md). Its
-content is bit for bit what writing the whole arrays at once gives, whatever the blocks' cut and
+"""The store is written one item file, one geometry group and one range of a part's poses at a
+time (issue P13, scale: a merge's memory stays flat as the sweep grows, docs/performance.md). Its
+content is bit for bit what writing the whole arrays at once gives, whatever the files' cut and
 the batch sizes; the write stays atomic; a disk that refuses a write ends in one clean error.
 """
 from __future__ import annotations
@@ -26,19 +26,18 @@ from sweep.files import OutputError, SpooledTemp, atomic_stream
 from sweep.runs import runner
 from sweep.runs.rundir import merge_shards, scan_shards
 from sweep.schema import COUNT_FIELDS
-from sweep.storage import store
+from sweep.schema import A_DIMS
+from sweep.storage import manipulation as store_manipulation, store
 from sweep.storage.h5 import atomic_file
-from sweep.storage.store import (
-    KIND_PART, CorruptFile, read_item_file, read_manipulation, store_differences, write_item_file,
-    write_store,
-)
-from sweep_cases import block_in_memory, fake_items, tiny
+from sweep.storage.itemfile import KIND_PART, read_item_file, read_manipulation, write_item_file
+from sweep.storage.store import CorruptFile, store_differences, write_store
+from sweep_cases import item_file_in_memory, fake_items, tiny
 
 CONFIG = Path(__file__).parent / "data" / "manipulation.yaml"
 
 
 def in_memory(scene, start, stop):
-    return block_in_memory(scene, fake_items(scene, start, stop), start)
+    return item_file_in_memory(scene, fake_items(scene, start, stop), start)
 
 
 def map_by_map(scene, full):
@@ -56,7 +55,7 @@ def map_by_map(scene, full):
 
 
 # ---------------------------------------------------------------------------------------------
-# Any cut of the items into blocks: the same store, every map at its place
+# Any cut of the items into item files: the same store, every map at its place
 # ---------------------------------------------------------------------------------------------
 SCENES = {"one-command": scene_from_dict(tiny()),
           "two-commands": scene_from_dict(tiny(commands=[{"f_left": 1.0, "f_right": 1.0},
@@ -66,16 +65,16 @@ SCENES = {"one-command": scene_from_dict(tiny()),
 @pytest.mark.parametrize("name", SCENES)
 @settings(max_examples=12)
 @given(data=st.data())
-def test_any_cut_into_blocks_writes_every_map_at_its_place(name, data):
+def test_any_cut_into_item_files_writes_every_map_at_its_place(name, data):
     scene = SCENES[name]
     n = scene.n_items
     cuts = sorted(data.draw(st.sets(st.integers(1, n - 1), max_size=n - 1)))
     bounds = [0, *cuts, n]
-    blocks = [in_memory(scene, a, b) for a, b in zip(bounds[:-1], bounds[1:])]
-    blocks = data.draw(st.permutations(blocks))                      # any order given
+    item_files = [in_memory(scene, a, b) for a, b in zip(bounds[:-1], bounds[1:])]
+    item_files = data.draw(st.permutations(item_files))                  # any order given
     with tempfile.TemporaryDirectory() as tmp:
         cut, whole = Path(tmp) / "cut.h5", Path(tmp) / "whole.h5"
-        write_store(cut, scene, blocks, {}, "test")
+        write_store(cut, scene, item_files, {}, "test")
         write_store(whole, scene, [in_memory(scene, 0, n)], {}, "test")
         assert store_differences(cut, whole) == []
         want = map_by_map(scene, fake_items(scene, 0, n))
@@ -86,19 +85,19 @@ def test_any_cut_into_blocks_writes_every_map_at_its_place(name, data):
                     np.testing.assert_array_equal(f[field][...], value, err_msg=field)
 
 
-def test_groups_are_read_one_block_at_a_time_in_item_order():
+def test_groups_are_read_one_item_file_at_a_time_in_item_order():
     scene = SCENES["one-command"]                   # 16 items in groups of 4
-    blocks = [in_memory(scene, a, b) for a, b in ((0, 3), (3, 9), (9, 10), (10, 16))]
+    item_files = [in_memory(scene, a, b) for a, b in ((0, 3), (3, 9), (9, 10), (10, 16))]
     read, seen = [], []
 
     def reader(b):
         read.append(b.start)
         return [b.data]
 
-    for group, (items,) in store.iter_groups(scene, blocks, reader):
+    for group, (items,) in store.iter_groups(scene, item_files, reader):
         seen.append((group, tuple(read)))
         np.testing.assert_array_equal(items, fake_items(scene, 4 * group, 4 * group + 4))
-    # a group is given as soon as its last block is read, and no later block was read before
+    # a group is given as soon as its last item file is read, and no later one was read before
     assert seen == [(0, (0, 3)), (1, (0, 3)), (2, (0, 3, 9, 10)), (3, (0, 3, 9, 10))]
 
 
@@ -124,13 +123,13 @@ def test_merged_store_is_the_one_machine_store_whatever_the_batch_sizes(runs, mo
     merge_shards(root / "run", root / "merged.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "merged.h5") == []
     # a few kept points per merge and per dense batch: 14 ranges of poses, many batches
-    monkeypatch.setattr(store, "MERGE_ROWS", 150)
+    monkeypatch.setattr(store_manipulation, "MERGE_ROWS", 150)
     monkeypatch.setattr(manip, "BATCH_ROWS", 48)
     monkeypatch.setattr(manip, "POSE_BATCH", 5)
     merge_shards(root / "run", root / "small-batches.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "small-batches.h5") == []
     # and the shards' files opened two at a time for each range, not held open for the part
-    monkeypatch.setattr(store, "OPEN_BLOCKS", 2)
+    monkeypatch.setattr(store_manipulation, "OPEN_ITEM_FILES", 2)
     merge_shards(root / "run", root / "few-open.h5", overwrite=True)
     assert store_differences(root / "whole.h5", root / "few-open.h5") == []
 
@@ -161,7 +160,7 @@ def assert_manipulation_of(path, scene, chunks):
         a = f["manipulation_a"][...]
         ix = scene.item_indices(0, scene.n_items)
         for item, value in enumerate(at_once.a_metric):
-            assert a[tuple(ix[d][item] for d in store.A_DIMS)] == value
+            assert a[tuple(ix[d][item] for d in A_DIMS)] == value
 
 
 def test_part_variables_are_those_of_every_chunk_merged_at_once(runs):
@@ -195,16 +194,16 @@ def test_streamed_parts_equal_the_one_pass_merge_on_random_forces(seed, tmp_path
     scene = scene_from_dict(tiny(outputs={"manipulation": True}))
     cuts = sorted(rng.choice(np.arange(1, scene.n_items), size=4, replace=False).tolist())
     bounds = [0, *cuts, scene.n_items]
-    chunks, blocks = [], []
+    chunks, item_files = [], []
     for a, b in zip(bounds[:-1], bounds[1:]):
         chunks.append(random_chunk(scene, a, b, rng))
         path = tmp_path / f"part-{a}.h5"
         write_item_file(path, scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0,
                     manipulation=chunks[-1])
-        blocks.append(read_item_file(path, with_data=False))
-    monkeypatch.setattr(store, "MERGE_ROWS", 300)
+        item_files.append(read_item_file(path, with_data=False))
+    monkeypatch.setattr(store_manipulation, "MERGE_ROWS", 300)
     monkeypatch.setattr(manip, "BATCH_ROWS", 64)
-    write_store(tmp_path / "s.h5", scene, blocks, {}, "test")
+    write_store(tmp_path / "s.h5", scene, item_files, {}, "test")
     assert_manipulation_of(tmp_path / "s.h5", scene, chunks)
 
 
@@ -230,7 +229,7 @@ def _tmp_files(directory: Path) -> list[str]:
 def test_a_merge_that_fails_halfway_leaves_nothing(runs, tmp_path, monkeypatch):
     _, root = runs
     calls = []
-    read = store._block_items
+    read = store._item_rows
 
     def fail_on_the_third(scene, b):
         calls.append(b.start)
@@ -238,7 +237,7 @@ def test_a_merge_that_fails_halfway_leaves_nothing(runs, tmp_path, monkeypatch):
             raise CorruptFile(f"{b.path.name}: unreadable (injected)")
         return read(scene, b)
 
-    monkeypatch.setattr(store, "_block_items", fail_on_the_third)
+    monkeypatch.setattr(store, "_item_rows", fail_on_the_third)
     out = tmp_path / "m.h5"
     with pytest.raises(CorruptFile, match="injected"):
         merge_shards(root / "run", out)
@@ -324,7 +323,7 @@ def test_spooled_file_reads_what_was_written_and_a_refusal_waits_for_commit(ops,
             assert target.read_bytes() == model.getvalue() and os.listdir(tmp) == ["f.bin"]
 
 
-def test_atomic_stream_leaves_nothing_when_its_block_fails(tmp_path):
+def test_atomic_stream_leaves_nothing_when_its_with_body_fails(tmp_path):
     with pytest.raises(RuntimeError), atomic_stream(tmp_path / "x.bin") as spool:
         spool.write(b"half")
         raise RuntimeError("interrupted")

@@ -200,7 +200,7 @@ def test_scenario_c_in_the_scene_and_its_identity():
     assert default.scenario_c_mu_low == 0.0
     low = scene_from_dict(_tiny_manipulation(scenario_c={"mu_low": 0.05}))
     assert low.scenario_c_mu_low == 0.05
-    # C's metrics are in the block files: a run with it never resumes or merges one without
+    # C's metrics are in the item files: a run with it never resumes or merges one without
     assert len({off.config_hash, default.config_hash, low.config_hash}) == 3
     assert default.cell_bytes() > off.cell_bytes()
 

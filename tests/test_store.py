@@ -15,12 +15,10 @@ from sweep.model import Command
 from sweep.config.scene import STORE_DIMS
 from sweep.config.parse import scene_from_dict, scene_from_frozen
 from sweep.runs.rundir import RunDir, ensure_manifest, merge_shards, scan_shards
-from sweep.storage.store import (
-    KIND_PART, KIND_SHARD, COUNT_FIELDS, CorruptFile, StoreError, assemble, read_item_file,
-    read_store,
-    store_arrays, write_item_file, write_store,
-)
-from sweep_cases import block_in_memory, fake_items, fake_summaries, tiny
+from sweep.schema import COUNT_FIELDS
+from sweep.storage.itemfile import KIND_PART, KIND_SHARD, assemble, read_item_file, write_item_file
+from sweep.storage.store import CorruptFile, StoreError, read_store, store_arrays, write_store
+from sweep_cases import item_file_in_memory, fake_items, fake_summaries, tiny
 
 
 def write_shards(scene, root, n_chunks):
@@ -38,7 +36,7 @@ def scene():
     return scene_from_dict(tiny())
 
 
-def test_block_round_trip(tmp_path, scene):
+def test_item_file_round_trip(tmp_path, scene):
     data = fake_items(scene, 3, 7)
     path = tmp_path / "items.h5"
     write_item_file(path, scene, 3, 7, data, KIND_PART, compute_seconds=0.5)
@@ -49,7 +47,7 @@ def test_block_round_trip(tmp_path, scene):
     assert b.frozen["resolved"] == scene.resolved()
 
 
-def test_block_of_wrong_shape_is_not_written(tmp_path, scene):
+def test_item_file_of_wrong_shape_is_not_written(tmp_path, scene):
     with pytest.raises(ValueError):
         write_item_file(tmp_path / "x.h5", scene, 0, 4, np.zeros((3, 2, len(SUMMARY_FIELDS))),
                     KIND_PART, 0.0)
@@ -57,7 +55,7 @@ def test_block_of_wrong_shape_is_not_written(tmp_path, scene):
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage", "foreign-hdf5"])
-def test_damaged_block_is_corrupt(tmp_path, scene, damage):
+def test_damaged_item_file_is_corrupt(tmp_path, scene, damage):
     path = tmp_path / "items.h5"
     write_item_file(path, scene, 0, 4, fake_items(scene, 0, 4), KIND_PART, 0.0)
     if damage == "truncate":
@@ -93,7 +91,7 @@ def test_several_commands_add_a_command_dimension(tmp_path):
                                        {"f_left": 0.4, "f_right": 1.6}]))
     full = fake_items(s, 0, s.n_items)
     path = tmp_path / "r.h5"
-    write_store(path, s, [block_in_memory(s, full)], timings={}, created_by="test")
+    write_store(path, s, [item_file_in_memory(s, full)], timings={}, created_by="test")
     with xr.open_dataset(path, engine="h5netcdf") as ds:
         assert ds["Lambda"].dims == STORE_DIMS + ("command",)
         np.testing.assert_array_equal(ds["f_left"].values, [1.0, 0.4])
@@ -105,7 +103,7 @@ def test_several_commands_add_a_command_dimension(tmp_path):
 
 def test_store_describes_itself(tmp_path, scene):
     path = tmp_path / "r.h5"
-    write_store(path, scene, [block_in_memory(scene, fake_items(scene, 0, scene.n_items))],
+    write_store(path, scene, [item_file_in_memory(scene, fake_items(scene, 0, scene.n_items))],
                 timings=dict(wall_seconds=2.0, compute_seconds=1.0, maps_per_second=32.0),
                 created_by="test")
     with xr.open_dataset(path, engine="h5netcdf") as ds:
@@ -140,13 +138,13 @@ def test_non_integral_counts_are_refused(scene):
 
 
 def test_assemble_needs_an_exact_cover(tmp_path, scene):
-    blocks = []
+    item_files = []
     for a, b in ((0, 5), (5, 9)):
         write_item_file(tmp_path / f"{a}.h5", scene, a, b, fake_items(scene, a, b), KIND_PART, 0.0)
-        blocks.append(read_item_file(tmp_path / f"{a}.h5"))
-    np.testing.assert_array_equal(assemble(scene, blocks, 0, 9), fake_items(scene, 0, 9))
+        item_files.append(read_item_file(tmp_path / f"{a}.h5"))
+    np.testing.assert_array_equal(assemble(scene, item_files, 0, 9), fake_items(scene, 0, 9))
     with pytest.raises(StoreError, match="do not cover"):
-        assemble(scene, blocks)
+        assemble(scene, item_files)
 
 
 def test_status_and_merge_of_a_complete_run(tmp_path, scene):
@@ -156,8 +154,8 @@ def test_status_and_merge_of_a_complete_run(tmp_path, scene):
     assert st.complete and [s.state for s in st.shards] == ["done"] * 4
     merge_shards(root, tmp_path / "m.h5")
     direct = tmp_path / "d.h5"
-    write_store(direct, scene, [block_in_memory(scene, fake_items(scene, 0, scene.n_items))], {},
-                "test")
+    write_store(direct, scene, [item_file_in_memory(scene, fake_items(scene, 0, scene.n_items))],
+                {}, "test")
     a, b = read_store(tmp_path / "m.h5"), read_store(direct)
     assert set(a.variables) == set(b.variables)
     for f in a.variables:

@@ -5,9 +5,10 @@ expected, a config where a store is, a folder where a file is, ... named, exit c
 
 `user_errors()` turns what a user can cause or fix - bad input (`ModelInputError`, `SceneError`),
 an unusable file or directory (`StoreError`, `OutputError`, any `OSError`) - into one line on
-stderr and exit code 2, and Ctrl-C or SIGTERM into one line and exit code 130. Anything else is a
-bug and keeps its traceback. `SweepCommand` and `SweepGroup` run every command (and the parsing
-of its arguments, where configs are loaded) inside it, so no command handles errors itself.
+stderr and exit code 2, and Ctrl-C or SIGTERM into one line and exit code 130
+(`sweep.interrupts`). Anything else is a bug and keeps its traceback. `SweepCommand` and
+`SweepGroup` run every command (and the parsing of its arguments, where configs are loaded)
+inside it, so no command handles errors itself.
 
 Imports stay light (click only): the heavy modules load inside commands, where an interrupt is
 already handled.
@@ -17,42 +18,20 @@ from __future__ import annotations
 import contextlib
 import io
 import os
-import signal
 import sys
 from pathlib import Path
 
 import click
 
-from .. import EXIT_INTERRUPTED, interrupt_cause
+from ..interrupts import (
+    EXIT_INTERRUPTED, interrupt_cause, interrupted_message, sigterm_as_interrupt,
+)
 
 
 class UserError(click.ClickException):
     """Bad input or an unusable file/directory: one line, exit code 2."""
 
     exit_code = 2
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM (a batch system's time limit or `kill`) handled like Ctrl-C."""
-
-    signum = signal.SIGTERM     # the signal to deliver again (sweep.program._unraisable)
-
-
-@contextlib.contextmanager
-def sigterm_as_interrupt():
-    """Raise `Terminated` in the main thread on SIGTERM for the duration of the block."""
-    def handler(signum, frame):
-        raise Terminated()
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:          # not the main thread
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 def _user_error_types() -> tuple[type, ...]:
@@ -64,11 +43,6 @@ def _user_error_types() -> tuple[type, ...]:
         if mod is not None:
             types.append(getattr(mod, name))
     return tuple(types)
-
-
-def interrupted_message(exc: KeyboardInterrupt, hint: str = "") -> str:
-    what = "terminated" if isinstance(exc, Terminated) else "interrupted"
-    return f"sweep: {what}" + (f"; {hint}" if hint else "; nothing was written")
 
 
 def one_line(exc: click.UsageError) -> UserError:

@@ -8,9 +8,8 @@ import sys
 
 import click
 
-from .common import (EXIT_INTERRUPTED, PROGRESS, STORE, STORE_OUT, THREADS, SweepCommand,
-                     UserError,
-                     interrupted_message)
+from ..interrupts import EXIT_INTERRUPTED, interrupted_message
+from .common import (PROGRESS, STORE, STORE_OUT, THREADS, SweepCommand, UserError)
 
 PARAMS = ("l1", "l2", "r1", "r2", "w")
 

@@ -182,7 +182,8 @@ def show(results):
     outputs.save_maps), get a short description."""
     import numpy as np
 
-    from ..storage.store import CorruptFile, StoreError, read_item_file, read_store
+    from ..storage.itemfile import read_item_file
+    from ..storage.store import CorruptFile, StoreError, read_store
 
     try:
         view = read_store(results)

@@ -8,9 +8,9 @@ import sys
 
 import click
 
-from .common import (CONFIG, EXIT_INTERRUPTED, PROGRESS, RUN_DIR, STORE, STORE_OR_RUN_OUT,
-                     STORE_OUT, THREADS, WAIT, SweepCommand, UserError, check_path,
-                     interrupted_message)
+from ..interrupts import EXIT_INTERRUPTED, interrupted_message
+from .common import (CONFIG, PROGRESS, RUN_DIR, STORE, STORE_OR_RUN_OUT, STORE_OUT, THREADS, WAIT,
+                     SweepCommand, UserError, check_path)
 
 
 @click.command("run", cls=SweepCommand, short_help="Compute a sweep (one machine, or one chunk).")

@@ -122,7 +122,7 @@ def _summarize_on_shared_fields(maps: CellMaps, solver, blocks, out, want, manip
     # Scenario C keeps its low-friction field across the cells of a range: then one range per
     # thread, of equal grid points (what a cell costs, to first order), as a smaller range would
     # compute it anew; else a cell per range, each thread taking the next as it finishes one
-    # (the best balance; the meetings' memo is the thread's: docs/performance.md, "The sweep's
+    # (the best balance; the meetings' memo is the thread's: docs/performance-log.md, "The sweep's
     # threads").
     if manip.c_mu_low.shape[0] > 0:
         points = maps.nys * ((2 * maps.ncols + 1) * want).sum(axis=1)

@@ -25,8 +25,8 @@ PAPER_SEARCH_RANGES = (2.0 - 0.0, 2.0 - 0.4, 1.6 - 0.4, 0.20 - 0.04, 0.18 - 0.02
 DEFAULT_CAPACITY = 16
 
 
-def _n_blocks() -> int:
-    """Pose blocks per kernel call: a few per thread, for load balance."""
+def _pose_ranges() -> int:
+    """Ranges of poses per kernel call: a few per thread, for load balance."""
     return 4 * numba.get_num_threads()
 
 
@@ -68,7 +68,7 @@ class HullReduction:
         with a positive value (0 elsewhere)."""
         ranges = np.zeros((self.n_poses, _hull.N_PARAMS))
         _hull.reduction_parameter_ranges(self.points, self.first, self.n_hull, self.n_kept,
-                                         self.values(), ranges, _n_blocks())
+                                         self.values(), ranges, _pose_ranges())
         return ranges
 
     def parameter_usage(self, search_ranges=PAPER_SEARCH_RANGES) -> np.ndarray:
@@ -191,7 +191,7 @@ class PartReduction:
         n_hull = np.zeros(ids.size, dtype=np.int64)
         n_kept = np.zeros(ids.size, dtype=np.int64)
         _hull.reduction_rebuild_ragged(seg, rows, first, out_rows, out_first, n_hull, n_kept,
-                                       _n_blocks())
+                                       _pose_ranges())
         keep = np.arange(pose.size) < np.repeat(seg[:-1] + n_kept, np.diff(seg))
         offsets = np.zeros(ids.size + 1, dtype=np.int64)
         np.cumsum(n_kept, out=offsets[1:])
@@ -324,7 +324,7 @@ class ManipulationChunk:
                    c_metric=joined_c_metrics(c_metric))
 
     def write(self, group) -> None:
-        """Into an h5py group (a block file's `manipulation` group)."""
+        """Into an h5py group (an item file's `manipulation` group)."""
         group.attrs["item_start"] = self.start
         group.attrs["item_stop"] = self.stop
         group.create_dataset("a_metric", data=self.a_metric)

@@ -19,6 +19,7 @@ from typing import Callable
 import numba
 import numpy as np
 
+from ..config.chunks import balanced_boundaries, even_ranges, ranges_between
 from ..model import ModelInputError
 
 #: Ranges per thread: enough for the threads to finish together, few enough that a range's
@@ -48,35 +49,20 @@ def numba_threads(n: int | None):
         numba.set_num_threads(old)
 
 
-def ranges_between(bounds: list[int]) -> list[tuple[int, int]]:
-    """The non-empty ranges (first, last) between consecutive bounds."""
-    return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+def split(n: int, n_ranges: int) -> list[tuple[int, int]]:
+    """At most `n_ranges` consecutive non-empty ranges (first, last) covering 0 .. n - 1, as equal
+    as they come (`config.chunks.even_ranges`, the one rule)."""
+    return even_ranges(n, min(max(n_ranges, 1), n)) if n > 0 else []
 
 
-def split(n: int, parts: int) -> list[tuple[int, int]]:
-    """`parts` consecutive ranges (first, last) covering 0 .. n - 1, as equal as they come."""
-    parts = max(1, min(parts, n))
-    bounds = [n * k // parts for k in range(parts + 1)]
-    return ranges_between(bounds)
-
-
-def split_by_cost(costs, parts: int) -> list[tuple[int, int]]:
-    """`parts` consecutive ranges (first, last) covering 0 .. len(costs) - 1 whose summed costs
-    are as equal as whole items allow: cut k where the running sum comes nearest k / parts of
-    the total (before or after the item that crosses it)."""
+def split_by_cost(costs, n_ranges: int) -> list[tuple[int, int]]:
+    """At most `n_ranges` consecutive non-empty ranges (first, last) covering 0 .. len(costs) - 1
+    whose summed costs are as equal as whole items allow (`config.chunks.balanced_boundaries`,
+    the one rule: cut k nearest k / n_ranges of the total)."""
     costs = np.asarray(costs, dtype=np.float64).reshape(-1)
-    n = costs.size
-    parts = max(1, min(parts, n))
-    running = np.concatenate([[0.0], np.cumsum(costs)])   # running[i]: the first i items
-    bounds = [0]
-    for k in range(1, parts):
-        target = running[-1] * k / parts
-        cut = int(np.searchsorted(running, target))       # running[cut] >= target
-        if cut > 0 and target - running[cut - 1] <= running[min(cut, n)] - target:
-            cut -= 1
-        bounds.append(min(max(cut, bounds[-1] + 1), n - (parts - k)))
-    bounds.append(n)
-    return ranges_between(bounds)
+    if costs.size == 0:
+        return []
+    return ranges_between(balanced_boundaries(costs, min(max(n_ranges, 1), costs.size)))
 
 
 def over_ranges(n: int, task: Callable[[int, int], None],
@@ -85,8 +71,8 @@ def over_ranges(n: int, task: Callable[[int, int], None],
     count of threads (in this thread when it is 1); with `costs` (one per item), ranges of
     equal summed cost. An exception in a task is raised here once every task has stopped."""
     threads = numba.get_num_threads()
-    parts = threads * ranges_per_thread
-    ranges = split(n, parts) if costs is None else split_by_cost(costs, parts)
+    n_ranges = threads * ranges_per_thread
+    ranges = split(n, n_ranges) if costs is None else split_by_cost(costs, n_ranges)
     if threads == 1 or len(ranges) <= 1:
         for first, last in ranges:
             task(first, last)

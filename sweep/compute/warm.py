@@ -29,7 +29,7 @@ import numpy as np
 from .. import kernels
 from ..model import Accuracy, Command, Design, Effects, Grid, Limits, Part
 
-#: Cold compilation of every kernel, on the reference machine (docs/performance.md, "Cold
+#: Cold compilation of every kernel, on the reference machine (docs/performance-log.md, "Cold
 #: compilation"): what the one line says to expect.
 COLD_SECONDS = 40
 MARKER = "compiled"

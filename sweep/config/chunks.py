@@ -1,9 +1,16 @@
-"""Cutting an ordered list of work items into contiguous index ranges. Pure functions.
+"""Cutting an ordered list of items into contiguous index ranges: the one rule. Pure functions.
 
-Items are numbered so that those sharing finger geometry form contiguous *groups* of equal size
-(`sweep.config.scene.ITEM_ORDER`). Cluster chunks are runs of whole groups whenever there are at
-least as many groups as chunks, balanced by an estimated cost per group; sub-chunks (the unit a run
-writes to disk) never straddle a group boundary. A range is a half-open ``(start, stop)`` pair.
+A range is a half-open ``(start, stop)`` pair. The rule, here only: cut `n` items into ranges
+of equal count (`even_ranges`: sizes differ by at most one, the larger ones first) or of equal
+summed cost (`balanced_boundaries`: each cut nearest its share of the total, on an exact tie
+after the item that crosses it, so that here too the earlier range is the larger one).
+Cluster chunks and sub-chunks of work items use it (this module), and so do the ranges of rows
+or cells the compute layer runs on threads (`sweep.compute.threads`).
+
+Work items are numbered so that those sharing finger geometry form contiguous *groups* of equal
+size (`sweep.config.scene.ITEM_ORDER`). Cluster chunks are runs of whole groups whenever there are
+at least as many groups as chunks, balanced by an estimated cost per group; sub-chunks (the unit
+a run writes to disk) never straddle a group boundary.
 """
 from __future__ import annotations
 
@@ -14,49 +21,56 @@ import numpy as np
 Range = tuple[int, int]
 
 
-def even_ranges(n_items: int, n_parts: int) -> list[Range]:
-    """`n_parts` contiguous non-empty ranges covering 0..n_items, sizes differing by at most one
+def even_ranges(n_items: int, n_ranges: int) -> list[Range]:
+    """`n_ranges` contiguous non-empty ranges covering 0..n_items, sizes differing by at most one
     (the larger ones first)."""
-    if n_parts < 1:
-        raise ValueError(f"number of parts must be >= 1, got {n_parts}")
-    if n_parts > n_items:
-        raise ValueError(f"cannot cut {n_items} items into {n_parts} non-empty parts")
-    q, rem = divmod(n_items, n_parts)
+    if n_ranges < 1:
+        raise ValueError(f"number of ranges must be >= 1, got {n_ranges}")
+    if n_ranges > n_items:
+        raise ValueError(f"cannot cut {n_items} items into {n_ranges} non-empty ranges")
+    q, rem = divmod(n_items, n_ranges)
     out, start = [], 0
-    for k in range(n_parts):
+    for k in range(n_ranges):
         stop = start + q + (1 if k < rem else 0)
         out.append((start, stop))
         start = stop
     return out
 
 
-def balanced_boundaries(costs: Sequence[float], n_parts: int) -> list[int]:
-    """Cut points 0 = b0 < b1 < ... < bn = len(costs) that split `costs` into `n_parts` contiguous
-    non-empty runs whose sums are close to equal: b_k is where the running sum is nearest to
-    k/n of the total (kept strictly increasing, leaving one item for every later run)."""
+def balanced_boundaries(costs: Sequence[float], n_ranges: int) -> list[int]:
+    """Cut points 0 = b0 < b1 < ... < bn = len(costs) that split `costs` into `n_ranges`
+    contiguous non-empty runs whose sums are close to equal: b_k is where the running sum is
+    nearest to k/n of the total, after the item that crosses it when both are as near (kept
+    strictly increasing, leaving one item for every later run); `even_ranges`' cuts when every
+    cost is 0."""
     n = len(costs)
-    if n_parts < 1:
-        raise ValueError(f"number of parts must be >= 1, got {n_parts}")
-    if n_parts > n:
-        raise ValueError(f"cannot cut {n} items into {n_parts} non-empty parts")
+    if n_ranges < 1:
+        raise ValueError(f"number of ranges must be >= 1, got {n_ranges}")
+    if n_ranges > n:
+        raise ValueError(f"cannot cut {n} items into {n_ranges} non-empty ranges")
     c = np.asarray(costs, dtype=np.float64)
     if c.size and (not np.all(np.isfinite(c)) or np.any(c < 0)):
         raise ValueError("costs must be finite and >= 0")
     cum = np.concatenate([[0.0], np.cumsum(c)])
     total = cum[-1]
     if total <= 0:
-        return [b for b, _ in even_ranges(n, n_parts)] + [n]
+        return [b for b, _ in even_ranges(n, n_ranges)] + [n]
     bounds = [0]
-    for k in range(1, n_parts):
-        target = total * k / n_parts
+    for k in range(1, n_ranges):
+        target = total * k / n_ranges
         j = int(np.searchsorted(cum, target))          # cum[j-1] < target <= cum[j]
         if j > 0 and target - cum[j - 1] < cum[j] - target:   # nearer to the previous cut
             j -= 1
         j = max(j, bounds[-1] + 1)
-        j = min(j, n - (n_parts - k))
+        j = min(j, n - (n_ranges - k))
         bounds.append(j)
     bounds.append(n)
     return bounds
+
+
+def ranges_between(bounds: Sequence[int]) -> list[Range]:
+    """The ranges between consecutive cut points."""
+    return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def chunk_ranges(n_items: int, n_chunks: int, group_size: int = 1,

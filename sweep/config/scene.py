@@ -72,7 +72,7 @@ MAX_VALUES_PER_PARAMETER = 100_000
 MAX_MAP_BYTES = 4 * 1024**3
 #: The merged manipulation reductions (sweep.compute.manipulation.PartReduction): a kept point is 12
 #: floats and a geometry index; a pose keeps its hull's vertices and near points, a handful
-#: (measured: docs/performance.md, "Memory").
+#: (measured: docs/performance-log.md, "Memory").
 REDUCTION_ROW_BYTES = 12 * 8 + 8
 KEPT_PER_POSE = 4
 
@@ -237,7 +237,7 @@ class Scene:
         out = {}
         if self.manipulation:
             out["manipulation"] = True
-        if self.scenario_c:  # (C's metrics are in the block files: a part of the identity)
+        if self.scenario_c:  # (C's metrics are in the item files: a part of the identity)
             out["scenario_c"] = {"mu_low": self.scenario_c_mu_low}
         if self.outputs != Outputs():
             out["on"] = self.outputs.names_on()
@@ -270,7 +270,7 @@ class Scene:
                                               max(self.values["l2"]), r, self.h)
                          for r in self.values["r"]], dtype=np.int64)
 
-    # --- memory (every array a run holds; docs/performance.md, "Memory") ---------------------
+    # --- memory (every array a run holds; docs/performance-log.md, "Memory") ---------------------
     def cell_bytes(self) -> int:
         """What one thread holds for the scene's largest cell (grid.cell_bytes): the largest
         l1, l2 and r, every width."""
@@ -285,8 +285,8 @@ class Scene:
         per-part reductions (KEPT_PER_POSE points of REDUCTION_ROW_BYTES per pose of every
         part's lattice, both reductions). A chunk holds that for its own items (its shard,
         assembled and rendered in memory before it is written); a one-machine run writes its
-        store a block and a part at a time, holding less (`sweep.storage.store.write_bytes`, what
-        a merge checks)."""
+        store an item file and a part at a time, holding less
+        (`sweep.storage.store.write_bytes`, what a merge checks)."""
         total = 2 * self.n_maps * len(SUMMARY_FIELDS) * 8
         if self.manipulation:
             # the Scenario B entries of a sub-chunk's cells (batch.manipulation_cells)

@@ -1,7 +1,7 @@
-"""The life of a run on disk: every path name, work directories and their parts, the chunked run
-directory's manifest, shards, status and merge.
+"""The life of a run on disk: every path name, work directories and their part files, the
+chunked run directory's manifest, shards, status and merge.
 
-File formats (what a block or a store holds) are `sweep.storage.store`'s; how a file is locked,
+File formats (what an item file or a store holds) are `sweep.storage`'s; how a file is locked,
 written atomically and cleaned up is `sweep.files`'. This module decides which files a run has and
 what state they are in:
 
@@ -32,10 +32,9 @@ from ..files import (
 )
 from ..config.parse import looks_like_config, scene_from_frozen
 from ..config.scene import Scene
-from ..storage.store import (
-    KIND_SHARD, CorruptFile, ItemFile, StoreError, file_kind, first_line, read_item_file,
-    write_bytes, write_store,
-)
+from ..storage.h5 import first_line
+from ..storage.itemfile import KIND_SHARD, ItemFile, read_item_file
+from ..storage.store import CorruptFile, StoreError, file_kind, write_bytes, write_store
 
 
 MANIFEST = "sweep-manifest.json"

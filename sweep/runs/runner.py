@@ -34,10 +34,10 @@ from ..files import claim_output, remove_stale_temporaries
 from .rundir import (RunDir, SingleRun, ensure_manifest, map_file_name, part_path,
                      prepare_parts_dir)
 from ..config.scene import Scene
-from ..storage.store import (
-    KIND_PART, KIND_SHARD, CorruptFile, StoreError, assemble, assemble_manipulation, read_item_file,
-    read_store, write_item_file, write_store,
+from ..storage.itemfile import (
+    KIND_PART, KIND_SHARD, assemble, assemble_manipulation, read_item_file, write_item_file,
 )
+from ..storage.store import CorruptFile, StoreError, read_store, write_store
 
 #: Environment variables that may carry the chunk index of an array job, with the index of their
 #: first task. SLURM and PBS arrays are written 0..N-1 (as `sweep slurm` does); SGE (`-t 1-N`) and
@@ -149,7 +149,7 @@ def compute_items_with_manipulation(scene: Scene, start: int, stop: int):
 
 #: Sub-chunks in flight at once: while one's kernels run, another's single-threaded work (its
 #: manipulation reductions' Python side, reading and writing files) fills the cores
-#: (docs/performance.md, "Sub-chunks in flight").
+#: (docs/performance-log.md, "Sub-chunks in flight").
 IN_FLIGHT = 2
 
 
@@ -165,9 +165,9 @@ def compute_sub_chunk(scene: Scene, start: int, stop: int, threads: int):
 def run_range(scene: Scene, start: int, stop: int, parts_dir: Path, progress: bool = True,
               desc: str | None = None) -> tuple[list, int, float]:
     """Compute every missing sub-chunk of items [start, stop) into `parts_dir`, IN_FLIGHT at a
-    time, written in order as each finishes. Returns (part blocks, maps computed now, wall
-    seconds of the compute). A part's compute seconds are the wall time since the previous
-    part was written (their sum is the compute's wall time; overlapping sub-chunks would
+    time, written in order as each finishes. Returns (part files, maps computed now, wall
+    seconds of the compute). A part file's compute seconds are the wall time since the previous
+    part file was written (their sum is the compute's wall time; overlapping sub-chunks would
     count twice)."""
     item_files = prepare_parts_dir(parts_dir, scene, start, stop)
     n_w = len(scene.values["w"])

@@ -28,8 +28,8 @@ from ..files import (CorruptFile, StoreError,  # noqa: F401 (the errors of store
 
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike, mode: str = "w", stream: bool = False):
-    """Yield a new h5py.File; it appears at `path` only if the block succeeds (temporary name,
-    fsync, rename: `sweep.files`).
+    """Yield a new h5py.File; it appears at `path` only if the `with` body succeeds (temporary
+    name, fsync, rename: `sweep.files`).
 
     Built in memory and written at the end (`write_bytes_atomic`), or with `stream` written to
     its temporary as it grows (`atomic_stream`: memory stays flat however large the file). Both
@@ -53,8 +53,8 @@ def atomic_file(path: str | os.PathLike, mode: str = "w", stream: bool = False):
 @contextlib.contextmanager
 def atomic_amend(path: str | os.PathLike):
     """Yield an existing HDF5 file, read into memory and opened for changes; write it back to
-    `path` atomically (as `atomic_file`) only if the block succeeds: until then, and if the
-    block fails or the process is killed, the file on disk is the old one, whole."""
+    `path` atomically (as `atomic_file`) only if the `with` body succeeds: until then, and if
+    it fails or the process is killed, the file on disk is the old one, whole."""
     path = Path(path)
     buffer = io.BytesIO(path.read_bytes())
     with h5py.File(buffer, "r+") as f:
@@ -85,17 +85,17 @@ def write_variable(f: h5py.Group, name: str, data, dims: Sequence[str],
     return _describe(f, ds, dims, attrs)
 
 
-#: Chunk cache of a variable filled a block at a time (`create_variable`): partly written chunks
-#: wait there until the blocks that complete them come. HDF5 2.0's default, 8 MiB for each open
+#: Chunk cache of a variable filled a slab at a time (`create_variable`): partly written chunks
+#: wait there until the slabs that complete them come. HDF5 2.0's default, 8 MiB for each open
 #: variable, held the store's whole summaries up to 8 MiB a variable (the paper store 5 MB, a 4x
 #: store 26 MB); with 1 MiB the memory stays flat and chunks that leave the cache before they are
-#: complete are read back and compressed again when the next block reaches them.
+#: complete are read back and compressed again when the next slab reaches them.
 FILL_CACHE_BYTES = 1 << 20
 
 
 def create_variable(f: h5py.Group, name: str, shape: Sequence[int], dtype, dims: Sequence[str],
                     attrs: Mapping | None = None, compression: bool = True) -> h5py.Dataset:
-    """`write_variable` without the data: the variable at its full size, to be filled a block at
+    """`write_variable` without the data: the variable at its full size, to be filled a slab at
     a time through the returned handle (h5py picks the chunks from the shape and type alone, so
     they are write_variable's), with a chunk cache of FILL_CACHE_BYTES."""
     shape = tuple(int(n) for n in shape)
@@ -197,6 +197,27 @@ def read_json_attr(obj, key: str):
 
 def iter_names(values: Iterable) -> list[str]:
     return [v.decode() if isinstance(v, bytes) else str(v) for v in values]
+
+
+def attr_text(v) -> str:
+    """A text attribute as read by h5py (bytes or str) as str."""
+    return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def plain(v):
+    """An attribute's value as a plain Python value (text, number) where it is one."""
+    if isinstance(v, bytes):
+        return v.decode()
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        return v.item()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of an exception's message (its type's name if it has none)."""
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
 
 
 def file_differences(path_a, path_b, ignore: Sequence[str] = ()) -> list[str]:

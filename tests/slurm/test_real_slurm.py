@@ -270,7 +270,7 @@ def _find_task_process(job_id: str, k: int, waiting) -> int:
                 continue
             try:
                 argv = (entry / "cmdline").read_bytes().split(b"\0")
-                # the `sweep` launcher (bin/sweep) execs `python -S -c '...sweep.program...'`
+                # the `sweep` console script: `python .../bin/sweep run ...`
                 if b"run" not in argv or not any(a.endswith(b"sweep") or b"sweep.program" in a
                                                  for a in argv):
                     continue

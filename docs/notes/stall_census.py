@@ -13,7 +13,7 @@ stop is then counted by kind, from the points around it (the probes and the stop
   - smooth minimum: the same finger modes all round;
   - plateau: every probe has the stop's energy.
 
-    .venv/bin/python scripts/stall_census.py --h 0.0125 [--maps crease|1200] [--stride 1]
+    .venv/bin/python docs/notes/stall_census.py --h 0.0125 [--maps crease|1200] [--stride 1]
 """
 from __future__ import annotations
 

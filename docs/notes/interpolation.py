@@ -1,6 +1,6 @@
 """A map predicted from the maps of neighbouring designs, and the caging answer of any map's
 fields (docs/optimisation.md, "The paper's suggestion tested: interpolation in energy map
-space"; scripts/interpolation_study.py).
+space"; docs/notes/interpolation_study.py, beside it, runs the study).
 
 *Interpolation.* The maps of the 2^k corner designs of a box in design space (k varied
 parameters), all on one grid (the same x and y: maps of different reach computed on a common
@@ -29,10 +29,10 @@ import itertools
 
 import numpy as np
 
-from ..kernels.records import OutcomeArrays
-from ..kernels.trajectories import trajectory_ends
-from ..model import END_CAGED, REACHED, Accuracy, Command, Design, Effects, Limits, Part
-from .layout import hand_record, kernel_records
+from sweep.kernels.records import OutcomeArrays
+from sweep.kernels.trajectories import trajectory_ends
+from sweep.model import END_CAGED, REACHED, Accuracy, Command, Design, Effects, Limits, Part
+from sweep.compute.layout import hand_record, kernel_records
 
 #: The fields a prediction carries (what the trajectories read).
 FIELDS = ("energy", "point_class", "equilibrium", "caging_score")

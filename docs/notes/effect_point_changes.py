@@ -6,7 +6,7 @@ net changes. This script computes whole maps of a random sample of the paper tab
 effect, and counts, point by point, how the class changes (a transition table) and how many
 caged points change. Prints Markdown.
 
-    .venv/bin/python scripts/effect_point_changes.py [--maps 40] [--seed 1]
+    .venv/bin/python docs/notes/effect_point_changes.py [--maps 40] [--seed 1]
 """
 from __future__ import annotations
 

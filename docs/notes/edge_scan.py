@@ -14,7 +14,7 @@ r (1 - 1e-9) (less the part's accepted dip below the palm line), the paper's fla
 (MODEL 4.3) excepted. Prints the first few violations of each kind and a count by
 (kind of point, tip_contact, mode).
 
-    NUMBA_CACHE_DIR=... .venv/bin/python scripts/edge_scan.py --seed 1 --n 6000
+    NUMBA_CACHE_DIR=... .venv/bin/python docs/notes/edge_scan.py --seed 1 --n 6000
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 from its grid neighbours' maps, and score the prediction against the true map
 (docs/optimisation.md, "The paper's suggestion tested: interpolation in energy map space").
 
-    python scripts/interpolation_study.py configs/paper.yaml --per-part 75 \\
+    python docs/notes/interpolation_study.py configs/paper.yaml --per-part 75 \\
         --part 0.4,0.4 --part 0.8,1.0 --part 1.2,0.1 --part 1.6,0.7 --out study.csv
 
 Per part (r, mu) of the config, `--per-part` designs drawn at random (`--seed`) from the grid
@@ -16,7 +16,7 @@ five). For each held-out design x:
   model, so nothing is extrapolated and the caging area is the whole-reach one, which the
   script checks);
 - the prediction: the corners' fields blended with multilinear weights
-  (`sweep.compute.interpolation.interpolate_fields`: energy averaged, classes and the caged
+  (`interpolation.interpolate_fields`: energy averaged, classes and the caged
   flag by weighted majority);
 - the caging answer of prediction and truth with the pipeline's trajectories on the fields
   alone (`caging_of_fields`, sliding off: a prediction has no model between its points to slide
@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sweep.compute.interpolation import (FIELDS, caging_of_fields, corner_offsets,
+from interpolation import (FIELDS, caging_of_fields, corner_offsets,
                                          corner_weights, ends_caged, interpolate_fields)
 from sweep.compute.maps import compute_map
 from sweep.compute.threads import numba_threads

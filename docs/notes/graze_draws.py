@@ -11,7 +11,7 @@ by round-off read as a miss (d30-graze-round-off-above-one). The kernels run as 
 mutant changes and, of those, the ones where the mutant's finger sweeps a link through the part
 (FREE, or the tip's strike), with the deepest point of its sweep (brute force, relative to r).
 
-    PYTHONPATH=$PWD .venv/bin/python scripts/graze_draws.py --seed 0 --n 4000
+    PYTHONPATH=$PWD .venv/bin/python docs/notes/graze_draws.py --seed 0 --n 4000
 """
 from __future__ import annotations
 
