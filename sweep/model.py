@@ -111,7 +111,7 @@ class Accuracy:
     trajectory method (TRAJECTORY_METHODS; "discrete" is read as "grid8") and the step
     resolution (model length; 0: off): on a grid coarser than it, grid8 and sliding sample a
     step at this spacing where it could cross a wall or a band of equilibrium narrower than
-    the grid (model-notes D35)."""
+    the grid (model-notes D36)."""
 
     reconfig_step: float = 0.01
     root_tol: float = 1e-12

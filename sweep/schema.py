@@ -97,7 +97,7 @@ POINT_FIELDS = (
     # Kept in memory for pictures (sweep.report.plot), not written.
     Field("first_event", "int8", FINGER_DIMS,
           "the closing sequence's first contact (kernels.finger's internal codes): where a "
-          "trajectory's step must be sampled (model-notes D35)", "1", in_map_file=False),
+          "trajectory's step must be sampled (model-notes D36)", "1", in_map_file=False),
     Field("end_index", "int64", MAP_DIMS,
           "flat (y, x) index of the point where the trajectory started here ends; -1 if none",
           "1", output="caging", in_map_file=False),
@@ -194,7 +194,7 @@ COUNT_FIELDS = tuple(f.name for f in SUMMARY if f.dtype == "int32")
 # per part (r, mu and command when the store has that dimension)
 # ---------------------------------------------------------------------------------------------
 #: Role of a design in its part's refinement (`refine_role`).
-REFINE_ROLE_MEANINGS = ("screened", "eliminated", "near_tie", "best")
+REFINE_ROLE_MEANINGS = ("screened", "eliminated", "near_tie", "best", "audited")
 #: Outcome of a part's refinement (`refine_status`).
 REFINE_STATUS_MEANINGS = ("not_refined", "certified", "near_tie")
 #: The design parameters: config keys, store dimensions and coordinates (l1 l2 r1 r2 w).
@@ -215,14 +215,16 @@ REFINE_FIELDS = (
           "length^2 (model units)", "refine"),
     Field("refine_role", "int8", (),
           "role of the design in its part's refinement: not a contender (screened), separated "
-          "from the best at some level (eliminated), in the part's near-tie set, or the best "
-          "(all designs of the best's equal-R class)", output="refine",
+          "from the best at some level (eliminated), in the part's near-tie set, the best "
+          "(all designs of the best's equal-R class), or a non-contender recomputed by the "
+          "part's audit (audited, model-notes D37)", output="refine",
           flags=REFINE_ROLE_MEANINGS),
     Field("refine_readmitted", "bool", (),
           "the design was re-admitted by the part's bound check and recomputed at the levels the "
-          "part reached: a non-contender whose screened caging area plus the largest rise of a "
-          "contender reached the best's refined caging area minus its error, or a contender "
-          "eliminated at an earlier level whose value plus error reached it", "1", "refine"),
+          "part reached: an audited design whose value plus error reached the best's refined "
+          "caging area minus its error, a non-contender whose screened caging area raised by "
+          "the audit's largest rise (refine_audit_rise) reached it, or a contender eliminated "
+          "at an earlier level whose value plus error reached it", "1", "refine"),
     Field("refine_status", "int8", PART_DIMS,
           "outcome of the part's refinement: certified (the best design's lead over every "
           "other contender exceeds the change between the last two levels of both), near_tie "
@@ -238,10 +240,11 @@ REFINE_FIELDS = (
           "refine"),
     Field("refine_bound_held", "bool", PART_DIMS,
           "the contender bound held: the best's refined caging area minus its error exceeds "
-          "every non-contender's screened caging area plus the largest change of a contender "
-          "from screening to its finest level, and every eliminated contender's value plus "
-          "error at its last level (the refinement re-admits what could win until it holds: "
-          "refine_widenings; false only in stores refined before it did)", "1", "refine"),
+          "every audited design's value plus error, every other non-contender's screened "
+          "caging area raised by the audit's largest rise, and every eliminated contender's "
+          "value plus error at its last level (the refinement re-admits what could win until "
+          "it holds: refine_widenings; false only in stores refined before it did)", "1",
+          "refine"),
     Field("refine_bound_used", "float64", PART_DIMS,
           "the part's contender bound: contenders had a screened caging area of at least "
           "(1 - this) times the part's best (3 times the largest change of its min_contenders "
@@ -261,6 +264,18 @@ REFINE_FIELDS = (
           "caging area of at least (1 - this) times the part's best contended (the floor "
           "aside); refine_bound_used when no non-contender was re-admitted, and may exceed "
           "refine_bound; NaN if not refined", "1", "refine"),
+    Field("refine_audit_designs", "int32", PART_DIMS,
+          "non-contending designs the part's audit recomputed at every level up to its finest "
+          "(a stratified random sample, seeded by the config: model-notes D37; equal-R designs "
+          "counted each); 0 if not refined", "1", "refine"),
+    Field("refine_audit_rise", "float64", PART_DIMS,
+          "the audit's largest rise of a design's caging area from screening to the part's "
+          "finest level, relative to its screened value (to at least a quarter of the part's "
+          "best screened value); every other non-contender is taken to rise at most this much; "
+          "NaN if not refined", "1", "refine"),
+    Field("refine_audit_h", "float64", PART_DIMS,
+          "grid spacing at which the part's audit recomputed its designs (the part's finest); "
+          "NaN if not refined", LENGTH, "refine"),
 )
 REFINE = {f.name: f for f in REFINE_FIELDS}
 

@@ -657,6 +657,9 @@ SLIDE_CASCADE = (("step", 1.0),                      # (a) the step's search on 
                  ("step", 0.25),                     # (b) the step's search on the circle of h/4
                  ("thorough", 1.0))                  # (c) the thorough search on the circle of h
 SLIDE_REL = 1e-12                                    # "lower": E < E_ref - 1e-12 |E_ref|
+STEP_RESOLUTION = 0.0125                             # D36: Accuracy.step_resolution's default
+# D36: the stage of the closing sequence that made a finger's first contact (M4)
+CLOSING_STAGE = {EV_PROXIMAL: 0, EV_DISTAL: 1, EV_VERTEX_B: 2, EV_VERTEX_T: 2, EV_NONE: 3}
 SLIDE_SEARCHES_PER_CELL = 64                         # at most 64 (nx + ny) searches per slide
 
 
@@ -673,13 +676,15 @@ class ReferenceGrid:
     def __init__(self, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None,
                  ylim=None, theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
                  reconfig_step=0.01, root_tol=1e-12, trajectory="sliding", mu_left=None,
-                 mu_right=None):
+                 mu_right=None, step_resolution=STEP_RESOLUTION):
         if trajectory not in TRAJECTORY_METHODS:
             raise ValueError(f"trajectory must be one of {TRAJECTORY_METHODS}, "
                              f"not {trajectory!r}")
         self.l1, self.l2, self.r1, self.r2, self.w, self.r, self.mu = l1, l2, r1, r2, w, r, mu
         self.f_left, self.f_right, self.h, self.theta2_min = f_left, f_right, h, theta2_min
         self.trajectory = trajectory
+        # D36: steps are sampled only on a grid coarser than the resolution (0: never)
+        self.resolution = step_resolution if 0.0 < step_resolution < h else None
 
         # --- Grid (M8, D1) -------------------------------------------------------------------
         if xlim is None:
@@ -820,12 +825,12 @@ class ReferenceGrid:
                     best = result
         return best
 
-    # --- Trajectories (M8, D7, D16) ------------------------------------------------------------
-    def successor(self, jj, ii):
-        """D7 / D16 step 1: the steepest strictly lower feasible neighbour, or None."""
+    # --- Trajectories (M8, D7, D16, D36) -------------------------------------------------------
+    def lower_neighbours(self, jj, ii):
+        """The strictly lower feasible neighbours, steepest first (ties: D7's order)."""
         e = self.point(jj, ii)["energy"]
-        best, best_slope = None, 0.0
-        for di, dj in NEIGHBOURS:
+        found = []
+        for order, (di, dj) in enumerate(NEIGHBOURS):
             ni, nj = ii + di, jj + dj
             if not (0 <= ni < self.nx and 0 <= nj < self.ny):
                 continue
@@ -834,9 +839,52 @@ class ReferenceGrid:
                 continue
             dist = self.h if (di == 0 or dj == 0) else self.h * math.sqrt(2.0)
             slope = (e - other["energy"]) / dist
-            if slope > best_slope:
-                best, best_slope = (nj, ni), slope
-        return best
+            if slope > 0.0:
+                found.append((-slope, order, (nj, ni)))
+        return [c for _, _, c in sorted(found)]
+
+    def successor(self, jj, ii):
+        """D7 / D16 step 1: the steepest strictly lower feasible neighbour, or None. With step
+        checks (D36): the steepest whose step is clear, or ("leaves", grid point) where a step
+        leaves P_j first."""
+        lower = self.lower_neighbours(jj, ii)
+        if self.resolution is None:
+            return lower[0] if lower else None
+        for nj, ni in lower:
+            if self.stages(jj, ii) == self.stages(nj, ni):
+                return (nj, ni)
+            kind, px, py = self.step_check(self.x[ii], self.y[jj], self.point(jj, ii)["energy"],
+                                           self.x[ni], self.y[nj])
+            if kind == "clear":
+                return (nj, ni)
+            if kind == "leaves":
+                return ("leaves", self.nearest_grid_point(px, py))
+        return None
+
+    def stages(self, jj, ii):
+        """D36: each finger's closing stage (CLOSING_STAGE) at a grid point, from M4.2's rigid
+        sweep at the point's finger-frame offsets."""
+        dy = self.y[jj]
+        return tuple(CLOSING_STAGE[rigid_sweep(dx, dy, self.l1, self.l2, self.r,
+                                               self.theta2_min)[0]]
+                     for dx in self.offsets(ii))
+
+    def step_check(self, x0, y0, e_top, x1, y1):
+        """D36: the model at n - 1 evenly spaced points strictly between the two ends, n the
+        least whole number with length / n <= the resolution: ("blocked", x, y) at the first
+        point whose energy is above e_top (or infeasible), ("leaves", x, y) at the first point
+        outside P_j, else ("clear", x1, y1)."""
+        length = math.hypot(x1 - x0, y1 - y0)
+        n = math.ceil(length / self.resolution - 1e-9)
+        for k in range(1, n):
+            t = k / n
+            px, py = x0 + (x1 - x0) * t, y0 + (y1 - y0) * t
+            energy, _, _, cls = self.probe(px, py, 0.0, (0.0, 0.0))
+            if energy is None or energy > e_top:
+                return "blocked", px, py
+            if cls != REACHED:
+                return "leaves", px, py
+        return "clear", x1, y1
 
     def nearest_grid_point(self, px, py):
         """The grid point nearest to a position (clamped into the grid)."""
@@ -850,6 +898,9 @@ class ReferenceGrid:
         circle of h; the first that finds a point strictly below e_here gives the move. Each
         search counts one against the budget; stops early (no move) when it runs out.
 
+        With step checks (D36) a search's point counts only if the straight move to it is clear;
+        a move that leaves P_j on the way is ("leaves", x, y).
+
         Returns (move or None, searches used, stage); a move is (energy, x, y, class), stage the
         index in SLIDE_CASCADE of the search that gave it (None without a move)."""
         searches = {"step": self.step_search, "thorough": self.thorough_search}
@@ -860,6 +911,12 @@ class ReferenceGrid:
             used += 1
             best = searches[kind](px, py, fraction * self.h)
             if best is not None and strictly_below(best[0], e_here):
+                if self.resolution is not None:
+                    check, gx, gy = self.step_check(px, py, e_here, best[1], best[2])
+                    if check == "blocked":
+                        continue
+                    if check == "leaves":
+                        return ("leaves", gx, gy), used, stage
                 return best, used, stage
         return None, used, None
 
@@ -882,6 +939,11 @@ class ReferenceGrid:
                 self.slides[(jj, ii)] = "stalled"
                 self.slide_ends[(jj, ii)] = (px, py, e_here)
                 return "end", END_STALLED, self.nearest_grid_point(px, py), (px, py, e_here)
+            if move[0] == "leaves":                          # D36: the move left P_j
+                _, gx, gy = move
+                self.slides[(jj, ii)] = "ejection"
+                self.slide_ends[(jj, ii)] = (gx, gy, e_here)
+                return "end", END_EJECTION, self.nearest_grid_point(gx, gy), (gx, gy, e_here)
             e_here, px, py, cls_here = move
             inside = (-h / 2.0 <= px - x0 < (nx - 0.5) * h
                       and -h / 2.0 <= py - y0 < (ny - 0.5) * h)
@@ -894,6 +956,12 @@ class ReferenceGrid:
                                                (ci + 1, cj + 1))
                        if 0 <= ki < nx and 0 <= kj < ny
                        and self.point(kj, ki)["point_class"] == REACHED]
+            if self.resolution is not None:              # D36: corners in reach in a line
+                corners = [c for c in corners
+                           if (self.point(*c)["stable"]
+                               or strictly_below(self.point(*c)["energy"], e_start))
+                           and self.step_check(px, py, max(e_here, self.point(*c)["energy"]),
+                                               self.x[c[1]], self.y[c[0]])[0] == "clear"]
             chosen = next((c for c in corners if self.point(*c)["stable"]), None)
             if chosen is None:
                 for c in corners:
@@ -925,6 +993,10 @@ class ReferenceGrid:
                 result = (END_CAGED if rec["caged"] else END_TIP_PREHENSION, cur, here)
                 break
             nxt = self.successor(cj, ci)
+            if nxt is not None and nxt[0] == "leaves":       # D36: the step left P_j
+                path.append(cur)
+                result = (END_EJECTION, nxt[1], here)
+                break
             if nxt is None and self.trajectory == "sliding":
                 outcome = self.slide(cj, ci)
                 if outcome[0] == "corner":
@@ -947,7 +1019,7 @@ class ReferenceGrid:
 def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=None, ylim=None,
               theta2_min=math.radians(-5.0), theta2_max=math.radians(90.0),
               reconfig_step=0.01, root_tol=1e-12, trajectory="sliding", mu_left=None,
-              mu_right=None):
+              mu_right=None, step_resolution=STEP_RESOLUTION):
     """One energy map, point by point (M8). Arrays on (y, x) and (finger, y, x).
 
     trajectory: "sliding" (D16, the kernels' default) or "grid8" (D7, the paper-like descent).
@@ -958,7 +1030,8 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
     search of D16's cascade, in the order of SLIDE_CASCADE). mu_left, mu_right: each finger's
     own contact friction (MODEL 10, Scenario C; None: mu); the palm keeps mu."""
     grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
-                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right)
+                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right,
+                         step_resolution)
     x, y, nx, ny = grid.x, grid.y, grid.nx, grid.ny
 
     nan = float("nan")
@@ -1002,7 +1075,7 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
 
     # --- Trajectories: discrete steepest descent (M8, D7) and sliding (D16) ------------------
     counts = {END_CAGED: 0, END_TIP_PREHENSION: 0, END_EJECTION: 0, END_STALLED: 0}
-    lam = 0.0
+    lam = palm = 0.0
     for jj in range(ny):
         for ii in range(nx):
             if out["point_class"][jj, ii] != REACHED:
@@ -1014,8 +1087,11 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
             counts[state] += 1
             if state == END_CAGED:
                 lam += out["caging_score"][ej, ei]
+                if abs(y[jj] - r) <= PALM_TOL:       # D36: the palm row is half a cell
+                    palm += out["caging_score"][ej, ei]
 
     out["Lambda"] = lam
+    out["caging_area"] = (lam - 0.5 * palm) * h * h
     out["n_caged"] = counts[END_CAGED]
     out["n_tip_prehension"] = counts[END_TIP_PREHENSION]
     out["n_ejection"] = counts[END_EJECTION]
@@ -1030,7 +1106,8 @@ def naive_map(l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05, xlim=No
 def naive_trajectory(start, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h=0.05,
                      xlim=None, ylim=None, theta2_min=math.radians(-5.0),
                      theta2_max=math.radians(90.0), reconfig_step=0.01, root_tol=1e-12,
-                     trajectory="sliding", mu_left=None, mu_right=None):
+                     trajectory="sliding", mu_left=None, mu_right=None,
+                     step_resolution=STEP_RESOLUTION):
     """The trajectory of one start of naive_map's grid (same arguments; start = (x, y), a grid
     point), computing only the grid points it visits or looks at.
 
@@ -1039,7 +1116,8 @@ def naive_trajectory(start, l1, l2, r1, r2, w, r, mu, f_left=1.0, f_right=1.0, h
     None off P_j), slides, slide_ends and cascade_moves (as naive_map's, for the slides on the
     way)."""
     grid = ReferenceGrid(l1, l2, r1, r2, w, r, mu, f_left, f_right, h, xlim, ylim, theta2_min,
-                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right)
+                         theta2_max, reconfig_step, root_tol, trajectory, mu_left, mu_right,
+                         step_resolution)
     ii = int(np.argmin(np.abs(grid.x - start[0])))
     jj = int(np.argmin(np.abs(grid.y - start[1])))
     if abs(grid.x[ii] - start[0]) > GRID_TOL * h or abs(grid.y[jj] - start[1]) > GRID_TOL * h:

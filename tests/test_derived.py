@@ -153,7 +153,7 @@ def refine_status(ds):
     for ri, mi in keys:
         role = per_design("refine_role", ri, mi)
         status = meanings[int(ds["refine_status"].isel(r=ri, mu=mi))]
-        final = role >= roles.index("near_tie")
+        final = (role == roles.index("near_tie")) | (role == roles.index("best"))
         if status == "not_refined":
             assert not (role > 0).any()
         else:

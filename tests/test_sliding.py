@@ -431,21 +431,20 @@ def test_circle_ties_go_to_the_first_direction_from_east():
 # ---------------------------------------------------------------------------------------------
 # Where each slide stops, not only where its trajectory ends
 # ---------------------------------------------------------------------------------------------
-SLIDE_KINDS = {0: "rejoined", 1: "ejection", 2: "stalled"}   # kernels/trajectories.py SLIDE_*
 
 
 def kernel_slide_stops(m):
     """{(j, i): (outcome, x, y)} of every grid stall of a kernel map that slides: the kernel's
-    own slide (trajectories.slide_successor, called as trajectory_ends calls it, with the
-    map's memo and collision context) from that grid point, and the last position it records:
-    where the part rejoined the grid, left P_j or the window, or stopped."""
+    own step (trajectories.successor, called as trajectory_ends calls it, with the map's memo
+    and collision context) from every point, and, where it slid, the last position the slide
+    records: where the part rejoined the grid, left P_j or the window, or stopped."""
     from sweep.compute.layout import hand_record, kernel_records
     from sweep.kernels.trajectories import (
-        downhill_neighbour,
+        GOES_ON,
         max_slide_points,
         memo_for_slide,
         new_memo,
-        slide_successor,
+        successor,
     )
     from sweep.kernels.meeting_search import slide_context
 
@@ -453,6 +452,7 @@ def kernel_slide_stops(m):
     energy = np.asarray(f["energy"], dtype=np.float64)
     point_class = np.asarray(f["point_class"])
     equilibrium = np.asarray(f["equilibrium"], dtype=bool)
+    first = np.asarray(f["first_event"])
     x, y = np.asarray(m.x, float), np.asarray(m.y, float)
     ny, nx = energy.shape
     h = m.grid.h
@@ -462,15 +462,16 @@ def kernel_slide_stops(m):
     context = slide_context(finger, hand.w, blocks.finger_collision)
     path = np.empty((max_slide_points(ny, nx), 2))
     stops = {}
+    kinds = {GOES_ON: "rejoined", naive.END_EJECTION: "ejection", naive.END_STALLED: "stalled"}
     for j in range(ny):
         for i in range(nx):
-            if (point_class[j, i] != naive.REACHED or equilibrium[j, i]
-                    or downhill_neighbour(energy, point_class, i, j, h) >= 0):
+            if point_class[j, i] != naive.REACHED or equilibrium[j, i]:
                 continue
             memo = memo_for_slide(memo)
-            _, kind, n = slide_successor(energy, point_class, equilibrium, x, y, i, j, finger,
-                                         solver, blocks, hand, path, memo, context)
-            stops[(j, i)] = (SLIDE_KINDS[int(kind)], path[n - 1, 0], path[n - 1, 1])
+            state, _, n = successor(energy, point_class, equilibrium, first, x, y, i, j, finger,
+                                    solver, blocks, hand, True, path, memo, context)
+            if n:
+                stops[(j, i)] = (kinds[int(state)], path[n - 1, 0], path[n - 1, 1])
     return stops
 
 

@@ -56,7 +56,8 @@ def grid8_ends(outs, h):
                                             Limits(), Accuracy(trajectory="grid8"), Effects())
     ny, nx = outs.energy.shape
     xs, ys = np.arange(nx) * h, 0.4 + np.arange(ny) * h
-    return trajectory_ends(outs, xs, ys, finger, solver, blocks,
+    first = np.zeros((2, ny, nx), dtype=np.int8)   # one closing stage: no step is sampled
+    return trajectory_ends(outs, first, xs, ys, finger, solver, blocks,
                            Hand(0.0, 1.0, 1.0, h, finger.mu_s, finger.mu_s), stack_for(outs),
                            False)
 

@@ -93,7 +93,10 @@ def _refined_header(view, designs, pick, pick_part):
                        pick_part(ref["refine_status"]), pick_part(ref["refine_finest_h"]),
                        pick_part(ref["refine_margin"]), pick_part(ref["refine_bound_held"]),
                        pick_part(ref["refine_widenings"]) if widened else None,
-                       pick_part(ref["refine_n_readmitted"]) if widened else 0)
+                       pick_part(ref["refine_n_readmitted"]) if widened else 0,
+                       tuple(pick_part(ref[k]) for k in ("refine_audit_designs",
+                                                         "refine_audit_rise", "refine_audit_h"))
+                       if "refine_audit_designs" in ref else None)
     order = ranking(role, value, pick(view.variables["caging_area"]).astype(np.float64))
     if out.status == "not_refined":
         return ["  refinement: not refined (no design cages at the screening spacing)"], \
@@ -104,7 +107,8 @@ def _refined_header(view, designs, pick, pick_part):
     lines = [f"  refinement: {out.status.replace('_', '-')} at h = {out.finest_h:g}; best "
              f"{_design_text(designs, b)}{twins}, refined caging area {value[b]:.6g} "
              f"(error {error[b]:.2g}), lead over the runner-up {out.margin:.3g} ({rel:.2%})"
-             + (f"; {out.bound_note()}" if out.bound_note() else "")]
+             + (f"; {out.bound_note()}" if out.bound_note() else ""),
+             f"  designs left out: {out.audit_note()}"]
     if not out.certified:
         lines.append(f"  near-tie set ({len(out.members)}): " + "; ".join(
             f"{_design_text(designs, d)}: {value[d]:.6g} +- {error[d]:.2g}"

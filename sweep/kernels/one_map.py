@@ -242,7 +242,7 @@ def count_summary(outs, tip_overlap, score_sum, h, palm_row, out):
     """The per-map summary row, in the order of sweep.schema.SUMMARY. The caging area is the
     integral of the end score over the starts (MODEL 8) by the trapezoidal rule across the
     palm line: where the grid's first row lies on it (`palm_row`), that row's starts stand for
-    half a cell (the part cannot start below the palm; model-notes D35)."""
+    half a cell (the part cannot start below the palm; model-notes D36)."""
     point_class = outs.point_class
     end_state = outs.end_state
     equilibrium = outs.equilibrium

@@ -9,7 +9,7 @@ evaluated. Where the grid is coarser than `SolverSettings.step_resolution`, a st
 could lie on either side of something narrower than the grid (its ends' first contacts made in
 different stages of the closing sequence, or any move of a slide) is sampled at that
 resolution: it is blocked where the energy rises above both ends (a wall: a band of vertex
-strikes, say) and it ends where the part leaves P_j (model-notes D35).
+strikes, say) and it ends where the part leaves P_j (model-notes D36).
 """
 import math
 import numpy as np
@@ -201,7 +201,7 @@ def outcome_at(x, y, bound, finger, solver, effects, hand, memo, context):
 
 
 # ---------------------------------------------------------------------------------------------
-# Steps that cannot cross what the part cannot cross (model-notes D35)
+# Steps that cannot cross what the part cannot cross (model-notes D36)
 # ---------------------------------------------------------------------------------------------
 # What a straight move of the part between two positions meets (step_check's first value).
 STEP_CLEAR, STEP_BLOCKED, STEP_LEAVES = 0, 1, 2

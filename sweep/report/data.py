@@ -126,16 +126,19 @@ class StoreData:
             self._reps = equal_r_classes(designs_of_coords(
                 {d: self.ds[d].values for d in DESIGN_DIMS}))
         widened = "refine_widenings" in self.ds
+        audited = "refine_audit_designs" in self.ds
         names = ["refine_status", "refine_finest_h", "refine_margin", "refine_bound_held"]
+        audit_names = ["refine_audit_designs", "refine_audit_rise", "refine_audit_h"]
         part = self.ds[names + (["refine_widenings", "refine_n_readmitted"] if widened
-                                else [])].isel(r=ri, mu=mi)
+                                else []) + (audit_names if audited else [])].isel(r=ri, mu=mi)
         out = part_outcome(self._reps, self.per_design("refine_role", ri, mi),
                            self.per_design("refined_caging_area", ri, mi),
                            self.per_design("refined_error", ri, mi),
                            int(part["refine_status"]), float(part["refine_finest_h"]),
                            float(part["refine_margin"]), bool(part["refine_bound_held"]),
                            int(part["refine_widenings"]) if widened else None,
-                           int(part["refine_n_readmitted"]) if widened else 0)
+                           int(part["refine_n_readmitted"]) if widened else 0,
+                           tuple(float(part[k]) for k in audit_names) if audited else None)
         return None if out.status == "not_refined" else out
 
 
@@ -208,7 +211,8 @@ def best_design(st: StoreData, ri: int, mi: int) -> dict:
                    margin=out.margin, finest_h=out.finest_h,
                    certification=("certified" if out.certified else
                                   f"near-tie ({len(out.members)})")
-                   + (f", {out.bound_label()}" if out.bound_label() else ""),
+                   + (f", {out.bound_label()}" if out.bound_label() else "")
+                   + f"; {out.audit_label()}",
                    near_tie=[dict(r=row["r"], mu=row["mu"], status=out.status, **st.design(m),
                                   R=st.design(m)["r2"] / st.design(m)["r1"],
                                   refined_caging_area=float(out.value[m]),

@@ -437,7 +437,7 @@ def refined_against_reference(scene: Scene, cells4: np.ndarray, screening: dict,
     rows = []
     for k, part in enumerate(parts(scene)):
         role = out.role[:, k]
-        final = np.flatnonzero(role >= ROLE["near_tie"])
+        final = np.flatnonzero((role == ROLE["near_tie"]) | (role == ROLE["best"]))
         best = np.flatnonzero(role == ROLE["best"])
         truth = tied_best(ref[:, k])
         certified = bool(out.status[k] == 1)

@@ -17,30 +17,39 @@ can be the best, so only they are recomputed on finer grids. Per part (r, mu) an
    screened caging area is 0 is not refined (status `not_refined`).
 3. *Levels.* The contenders still in the running are recomputed at h/2, h/4, ..., h/2**levels
    with the config's accuracy settings otherwise unchanged (trajectory method included). At
-   level k a class's value is its caging area there and its *error estimate* is the change from
-   level k-1 (the screened value for k = 1). Let b be the class of largest value (first in store
-   order among equal values). A class stays in the running while its value plus its error
+   level k a class's value is its caging area there and its *error estimate* comes from its
+   changes between levels (`error_estimate`): the change from level k-1 (the screened value
+   for k = 1) where that change is at most half the one before, larger where the changes
+   shrink more slowly (the geometric tail of their ratio), the sum of the last two where they
+   do not shrink. Let b be the class of largest value (first in store order among equal
+   values). A class stays in the running while its value plus its error
    reaches b's value minus b's error; the others are *eliminated* (separated from the best).
-   The part is *certified* when b alone is left: its lead over every other contender exceeds the
-   change between the last two levels of both. At the level cap the classes left are the part's
-   *near-tie set*, each with its value and error estimate.
+   The part is *certified* when b alone is left and b's own changes shrink (or it has only
+   one): its lead over every other contender exceeds the error estimates of both. Where b's
+   changes do not shrink the part goes one level further. At the level cap the classes left
+   are the part's *near-tie set*, each with its value and error estimate.
    *Leader first* (levels 2 and up): the best of level k-1 is computed at level k before the
    others, and a class whose level-(k-1) value plus error is already below the leader's new
    value minus its new error is eliminated without being computed at level k (the test above,
    with the class's last interval; model-notes D28).
-4. *Bound check, repaired.* The contender bound and the eliminations are assumptions about how
-   far a value can still move; each part checks them against its own run. A class outside the
-   part's final set *could win* when it is a non-contender whose screened value plus the largest
-   rise (or least fall) of any contender from its screened value to its finest one reaches the
-   best's value minus its error, or a contender eliminated at an earlier level whose value plus
-   error there reaches it (the leader-first test, with the final best's interval: a leader whose
-   value then collapsed by more than its error estimate eliminated it on a false premise). Such
-   classes are *re-admitted*: they contend, are recomputed at every level up to the part's
-   finest, and that level is separated again (levels go on below the cap if several classes are
-   left); repeated until nothing could win (`refine_widenings`, `refine_readmitted`). Every
+4. *Audit and bound check, repaired.* The contender bound and the eliminations are
+   assumptions about how far a value can still move; each part checks them against
+   computations of the designs they are about (model-notes D37). The *audit*: a stratified
+   random sample of the part's non-contenders (`audit_sample`: by screened value, seeded by the
+   config and the part, the same on every run) is computed at every level up to the part's
+   finest; the largest relative rise of a sampled class from screening to the finest level
+   (`audit_rise`) bounds the others'. A class outside the part's final set *could win* when it
+   is a sampled class whose value plus error reaches the best's value minus its error, a
+   non-contender whose screened value raised by the audit's rise reaches it, or a contender
+   eliminated at an earlier level whose value plus error there reaches it (the leader-first
+   test, with the final best's interval). Such classes are *re-admitted*: they contend, are
+   recomputed at every level up to the part's finest, and that level is separated again
+   (levels go on below the cap if several classes are left; the sample then follows to the new
+   level); repeated until nothing could win (`refine_widenings`, `refine_readmitted`). Every
    round re-admits a class below the finest level or outside the contenders, so it ends, at
    worst with every class computed at the finest level, and the stored `refine_bound_held` is
-   true.
+   true. The contenders' own changes are never used to bound the others': they are the designs
+   the screening inflated most (chosen for being high), so they fall most.
 
 Every map's caging area depends on that map alone, and the plan of each level is a pure function
 of the screened values and the earlier levels' values, so the result does not depend on how the
@@ -142,6 +151,71 @@ def contender_cut(best0: float, now: np.ndarray, screened: np.ndarray, bound: fl
     `screened`: the floor's values), but never below (1 - bound) times the screened best."""
     change = float(np.max(np.abs(now - screened)))
     return max((1.0 - bound) * best0, float(np.max(now)) - CHANGE_FACTOR * change)
+
+
+def error_estimate(change: float, before: float) -> float:
+    """The error estimate of a value from its last change between levels, `change`, and the
+    change before it, `before` (NaN where there is none: level 1). A method whose error at
+    least halves per level has at most `change` left to go; where the changes shrink by a
+    ratio q between 1/2 and 1, the geometric tail `change q / (1 - q)`; where they do not shrink
+    the convergence is not established (the collision scene's creases converge non-
+    monotonically), so the sum of the last two changes."""
+    if not math.isfinite(before) or change <= 0.5 * before:
+        return change
+    if change < before:
+        q = change / before
+        return change * q / (1.0 - q)
+    return change + before
+
+
+def shrinking(change: float, before: float) -> bool:
+    """Whether a value's changes between levels shrink (or it has changed once only)."""
+    return not math.isfinite(before) or change < before
+
+
+#: Step 4's audit: strata of a part's non-contenders by screened caging area, as fractions of
+#: the part's best screened one (a stratum runs up to the one above it), and the classes each
+#: gives. The top stratum, the designs nearest the contenders, is sampled most.
+AUDIT_STRATA = ((0.6, 8), (0.3, 4), (0.0, 2))
+#: A rise is relative to the screened value, but to no less than this fraction of the part's
+#: best screened one (a design screened near 0 would otherwise make any rise infinite).
+AUDIT_FLOOR = 0.25
+
+
+def audit_sample(left_out: np.ndarray, screened: np.ndarray, best0: float,
+                 seed: int) -> np.ndarray:
+    """Step 4's sample of a part's non-contending classes `left_out` (representatives): in each
+    stratum of AUDIT_STRATA, that many classes drawn at random (all if fewer), the draws
+    seeded by `seed`. Sorted representatives."""
+    rng = np.random.default_rng(seed)
+    v = screened[left_out]
+    picked: list = []
+    upper = math.inf
+    for low, n in AUDIT_STRATA:
+        stratum = left_out[(v >= low * best0) & (v < upper * best0)]
+        upper = low
+        if stratum.size:
+            picked.extend(rng.choice(stratum, min(n, stratum.size), replace=False).tolist())
+    return np.sort(np.array(picked, dtype=np.int64))
+
+
+def audit_rise(sample: np.ndarray, screened: np.ndarray, latest: np.ndarray,
+               best0: float) -> float:
+    """The largest relative rise of an audited class from its screened value to its latest
+    (finest) one, against at least AUDIT_FLOOR of the part's best screened value; 0 where every
+    audited class fell (or none was audited)."""
+    if not sample.size:
+        return 0.0
+    base = np.maximum(screened[sample], AUDIT_FLOOR * best0)
+    return max(0.0, float(np.max((latest[sample] - screened[sample]) / base)))
+
+
+def could_win_unaudited(outside: np.ndarray, screened: np.ndarray, rise: float, best0: float,
+                        best_low: float) -> np.ndarray:
+    """The non-contending, unaudited classes of a part whose screened value raised by the
+    audit's rise reaches `best_low` (the best's value minus its error)."""
+    reach = screened[outside] + rise * np.maximum(screened[outside], AUDIT_FLOOR * best0)
+    return outside[reach >= best_low]
 
 
 def _keys(classes, parts) -> np.ndarray:
@@ -294,6 +368,9 @@ class Refinement:
     widenings: np.ndarray = None        # (n_parts,) int32: rounds of step 4 (0: held at once)
     n_readmitted: np.ndarray = None     # (n_parts,) int32: designs re-admitted (class members)
     bound_widened: np.ndarray = None    # (n_parts,) the contender bound after step 4
+    audit_designs: np.ndarray = None    # (n_parts,) int32: designs audited (class members)
+    audit_rise: np.ndarray = None       # (n_parts,) the audit's largest relative rise
+    audit_level: np.ndarray = None      # (n_parts,) int8: the level the audit reached
     level_maps: list = field(default_factory=list)      # maps computed per level (1..)
     level_seconds: list = field(default_factory=list)   # compute seconds per level
     widen_maps: int = 0                 # of those, maps computed by step 4
@@ -308,6 +385,12 @@ class Refinement:
                 setattr(self, name, np.zeros(n_parts, dtype=dtype))
         if self.bound_widened is None:
             self.bound_widened = self.bound_used.copy()
+        if self.audit_designs is None:
+            self.audit_designs = np.zeros(n_parts, dtype=np.int32)
+        if self.audit_rise is None:
+            self.audit_rise = np.full(n_parts, np.nan)
+        if self.audit_level is None:
+            self.audit_level = np.zeros(n_parts, dtype=np.int8)
 
     @property
     def seconds(self) -> float:
@@ -326,22 +409,26 @@ def refine_scene(scene: Scene, screened: np.ndarray, settings: RefineSettings, w
     """Run (or resume) the refinement of every part from the screened caging areas
     (n_designs, n_parts); work files in `work` (created; the caller holds the store's lock)."""
     return refine_designs(scene, design_table(scene), screened, settings, work, progress,
-                          identity=refine_identity(scene, settings))
+                          identity=refine_identity(scene, settings), seed=scene.config_hash)
 
 
 def refine_designs(scene: Scene, designs: np.ndarray, screened: np.ndarray,
                    settings: RefineSettings, work: Path, progress: bool = False,
-                   identity: dict | None = None) -> Refinement:
+                   identity: dict | None = None, seed: str | None = None) -> Refinement:
     """The refinement of a set of designs (n_designs, 5: l1 l2 r1 r2 w, in the store's order
     with w fastest and the scene's widths; the scene's parts) from their screened caging areas:
-    `refine_scene` for a whole config, `sweep accuracy` for its sample."""
+    `refine_scene` for a whole config, `sweep accuracy` for its sample. `seed`: what seeds the
+    audit's draws (default: the config's hash and the designs)."""
     parts = part_table(scene)
     n_designs, n_parts = screened.shape
     if n_designs != designs.shape[0] or n_parts != parts.shape[0]:
         raise RefineError(f"screened values of shape {screened.shape} for {designs.shape[0]} "
                           f"designs and {parts.shape[0]} parts")
     prepare_work_dir(work, identity or refine_identity(scene, settings, designs))
-    stage = _Stage(scene, designs, parts, screened, settings, work, progress)
+    if seed is None:
+        seed = scene.config_hash + hashlib.sha256(np.ascontiguousarray(designs).tobytes()
+                                                  ).hexdigest()
+    stage = _Stage(scene, designs, parts, screened, settings, work, progress, seed)
     todo = stage.level_one()
     if todo:
         stage.advance(todo)
@@ -354,14 +441,17 @@ class _Stage:
     the classes still in the running, its leader and finest level; per class its latest value
     and level. Every map goes through `compute` (work files, cost per level)."""
 
-    def __init__(self, scene, designs, parts, screened, settings, work, progress):
+    def __init__(self, scene, designs, parts, screened, settings, work, progress, seed):
         self.scene, self.designs, self.parts = scene, designs, parts
         self.screened, self.settings = screened, settings
-        self.work, self.progress = work, progress
+        self.work, self.progress, self.seed = work, progress, seed
         n_designs, n_parts = screened.shape
         self.reps = equal_r_classes(designs)
         self.class_reps = np.unique(self.reps)
         self.latest = screened.copy()      # per representative: value at its latest level
+        self.change = np.full(screened.shape, np.nan)   # its change from the level before
+        self.change_before = np.full(screened.shape, np.nan)   # and that level's change
+        self.sample: dict = {}             # per part: the audit's classes (step 4)
         empty = np.zeros(0, dtype=np.int64)
         self.contenders = [empty] * n_parts
         self.alive = [empty] * n_parts     # the classes still in the running
@@ -390,9 +480,13 @@ class _Stage:
         for p, d in keys.tolist():
             now = got[(p, d)]
             members = self.reps == d
+            change = abs(now - self.latest[d, p])
+            before = self.change[d, p] if k > 1 else math.nan
             out.value[members, p] = now
             out.level[members, p] = k
-            out.error[members, p] = abs(now - self.latest[d, p])
+            out.error[members, p] = error_estimate(change, before)
+            self.change_before[d, p] = before
+            self.change[d, p] = change
             self.latest[d, p] = now
 
     # -- step 2 and level 1 ----------------------------------------------------------------------
@@ -424,9 +518,14 @@ class _Stage:
                     todo[p] = 2
         return todo
 
+    def settled(self, p: int) -> bool:
+        """Part p's classes are separated and its best's changes shrink (step 3)."""
+        d = self.leader[p]
+        return self.alive[p].size == 1 and shrinking(self.change[d, p], self.change_before[d, p])
+
     def conclude(self, p: int, k: int) -> None:
         """Step 3 at level k of part p: the classes computed there are separated; the best is the
-        leader of the next level; one class left certifies the part."""
+        leader of the next level; one class left whose changes shrink certifies the part."""
         c = self.class_reps[self.out.level[self.class_reps, p] == k]
         now = self.latest[c, p]
         b, keep = separated(now, self.out.error[c, p])
@@ -436,6 +535,11 @@ class _Stage:
         self.leader[p] = int(c[b])
         self.alive[p] = c[keep]
         self.out.status[p] = STATUS["certified" if self.alive[p].size == 1 else "near_tie"]
+
+    def goes_on(self, p: int, k: int) -> bool:
+        """Part p needs level k + 1: below the cap, several classes left or the best's changes
+        not shrinking (step 3)."""
+        return k < self.settings.levels and not self.settled(p)
 
     # -- levels 2 and up, leader first -----------------------------------------------------------
     def advance(self, todo: dict, prefix: str = "") -> None:
@@ -448,7 +552,7 @@ class _Stage:
             self.leader_first(active, k, prefix)
             for p in active:
                 self.conclude(p, k)
-            active = [p for p in active if self.alive[p].size > 1 and k < self.settings.levels]
+            active = [p for p in active if self.goes_on(p, k)]
 
     def leader_first(self, active: list, k: int, prefix: str) -> None:
         """Level k of the parts `active` (model-notes D28): each part's leader first, then the
@@ -465,26 +569,52 @@ class _Stage:
             rest.append(c[self.latest[c, p] + self.out.error[c, p] >= low])
         self.compute(_keys(dict(zip(active, rest)), active), k, f"{prefix}{k}b")
 
-    # -- step 4: the bound check, repaired -------------------------------------------------------
+    # -- step 4: the audit and the bound check, repaired ----------------------------------------
+    def audit(self, label: str) -> None:
+        """Step 4's audit: each part's sample of non-contenders (drawn once, from the classes
+        that did not contend then) computed at every level up to the part's finest."""
+        out, n_parts = self.out, self.screened.shape[1]
+        parts = [p for p in range(n_parts) if self.alive[p].size]
+        for p in parts:
+            if p not in self.sample:
+                left_out = np.setdiff1d(self.class_reps, self.contenders[p])
+                best0 = float(self.screened[self.class_reps, p].max())
+                seed = int(hashlib.sha256(f"{self.seed}:{p}".encode()).hexdigest()[:16], 16)
+                self.sample[p] = audit_sample(left_out, self.screened[:, p], best0, seed)
+        top = max((int(out.finest_level[p]) for p in parts), default=0)
+        for k in range(1, top + 1):
+            keys = {p: self.sample[p][out.level[self.sample[p], p] < k]
+                    if k <= out.finest_level[p] else self.sample[p][:0] for p in parts}
+            self.compute(_keys(keys, parts), k, f"{label}{k}")
+        for p in parts:
+            out.audit_level[p] = out.finest_level[p]
+
     def left_out(self, p: int) -> np.ndarray:
         """Representatives of part p that are not in its final set and could still be its best
-        (step 4): empty when the bound held."""
+        (step 4): empty when the bound held. The audit's classes must be computed at the part's
+        finest level (`audit`)."""
         best = self.leader[p]
         best_low = self.latest[best, p] - self.out.error[best, p]
+        best0 = float(self.screened[self.class_reps, p].max())
         c = self.contenders[p]
-        outside = could_win_outside(self.class_reps, c, self.screened[:, p], self.latest[:, p],
-                                    best_low)
+        sample = np.setdiff1d(self.sample.get(p, c[:0]), c)
+        rise = audit_rise(sample, self.screened[:, p], self.latest[:, p], best0)
+        self.out.audit_rise[p] = rise
+        outside = np.setdiff1d(np.setdiff1d(self.class_reps, c), sample)
+        unaudited = could_win_unaudited(outside, self.screened[:, p], rise, best0, best_low)
+        audited = sample[self.latest[sample, p] + self.out.error[sample, p] >= best_low]
         gone = np.setdiff1d(c, self.alive[p])
         gone = gone[self.out.level[gone, p] < self.out.finest_level[p]]
         back = gone[self.latest[gone, p] + self.out.error[gone, p] >= best_low]
-        return np.union1d(outside, back)
+        return np.union1d(np.union1d(unaudited, audited), back)
 
     def widen(self) -> None:
-        """Step 4: re-admit what the check says could win, recompute it at the levels the part
-        reached, separate again (and go on to the next levels if that leaves several classes
-        below the cap); repeat until the check holds for every part."""
+        """Step 4: audit, re-admit what could win, recompute it at the levels the part reached,
+        separate again (and go on to the next levels if that leaves several classes below the
+        cap); repeat until nothing could win in any part."""
         out, n_parts = self.out, self.screened.shape[1]
         for rounds in itertools.count(1):
+            self.audit(f"a{rounds}-")
             back = {p: self.left_out(p) for p in range(n_parts) if self.alive[p].size}
             back = {p: c for p, c in back.items() if c.size}
             if not back:
@@ -506,7 +636,7 @@ class _Stage:
             todo = {}
             for p in sorted(back):
                 self.conclude(p, reached[p])
-                if self.alive[p].size > 1 and reached[p] < self.settings.levels:
+                if self.goes_on(p, reached[p]):
                     todo[p] = reached[p] + 1
             if todo:
                 self.advance(todo, prefix)
@@ -518,6 +648,9 @@ class _Stage:
             c = self.contenders[p]
             out.n_contenders[p] = int(np.isin(reps, c).sum())
             out.n_readmitted[p] = int(out.readmitted[:, p].sum())
+            audited = np.setdiff1d(self.sample.get(p, c[:0]), c)
+            out.role[np.isin(reps, audited), p] = ROLE["audited"]
+            out.audit_designs[p] = int(np.isin(reps, audited).sum())
             out.role[np.isin(reps, c), p] = ROLE["eliminated"]
             if not self.alive[p].size:
                 continue
@@ -531,26 +664,6 @@ class _Stage:
             out.level_maps.pop()
             out.level_seconds.pop()
         return out
-
-
-def could_win_outside(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
-                      latest: np.ndarray, best_low: float) -> np.ndarray:
-    """The non-contenders of one part that could still be its best: screened value plus the
-    largest change of a contender from its screened value to its latest (finest) one at least
-    `best_low` (the best's value minus its error). Sorted representatives."""
-    out = np.setdiff1d(reps, contenders)
-    if not out.size:
-        return out
-    drift = float(np.max(latest[contenders] - screened[contenders]))
-    return out[screened[out] + drift >= best_low]
-
-
-def bound_held(reps: np.ndarray, contenders: np.ndarray, screened: np.ndarray,
-               latest: np.ndarray, best_low: float) -> bool:
-    """The bound check of one part: `best_low` (the best's value minus its error) exceeds every
-    non-contender's screened value plus the largest change of a contender from its screened
-    value to its latest (finest) one. True when every class contended."""
-    return not could_win_outside(reps, contenders, screened, latest, best_low).size
 
 
 def _run_level(scene, designs, parts, keys, h, label, work, progress):

@@ -34,7 +34,8 @@ def ranking(role: np.ndarray, value: np.ndarray, screened: np.ndarray) -> np.nda
     finest level (best, then the near-tie set), then the eliminated contenders, then the rest;
     inside each group by caging area at the finest level each design reached (the screened
     value for the rest), store order among equal values."""
-    group = np.where(role >= ROLE["near_tie"], 2, np.where(role == ROLE["eliminated"], 1, 0))
+    final = (role == ROLE["near_tie"]) | (role == ROLE["best"])
+    group = np.where(final, 2, np.where(role == ROLE["eliminated"], 1, 0))
     v = np.where(np.isnan(value), screened, value)
     v = np.where(np.isnan(v), -np.inf, v)
     return np.lexsort((np.arange(v.size), -v, -group))
@@ -61,10 +62,30 @@ class PartOutcome:
     bound_held: bool = True     # the part's bound check (module docstring)
     widenings: int | None = 0   # rounds of re-admission (None: a store refined before them)
     n_readmitted: int = 0       # designs re-admitted by the bound check
+    audit_designs: int | None = None   # designs the audit recomputed (None: no audit stored)
+    audit_rise: float = float("nan")   # its largest relative rise from screening
+    audit_h: float = float("nan")      # the spacing it recomputed them at
 
     @property
     def certified(self) -> bool:
         return self.status == "certified"
+
+    def audit_label(self) -> str:
+        """What the certificate rests on for the designs left out, in a few words."""
+        if self.audit_designs is None:
+            return "no audit (refined by an earlier version)"
+        if not self.audit_designs:
+            return "every design contended"
+        return f"audit {self.audit_designs} at h={self.audit_h:g}, rise <= {self.audit_rise:.1%}"
+
+    def audit_note(self) -> str:
+        """What the certificate rests on for the designs left out, in words."""
+        if self.audit_designs is None or not self.audit_designs:
+            return self.audit_label()
+        return (f"{self.audit_designs} design{'s' if self.audit_designs != 1 else ''} left out "
+                f"recomputed at h = {self.audit_h:g} (a stratified random sample), their "
+                f"largest rise from screening {self.audit_rise:.1%}; every other design left "
+                f"out would have to rise more than all of them to reach the best")
 
     def bound_label(self) -> str:
         """`bound_note` in a few words, for a table cell ('' when the bound held at once)."""
@@ -90,15 +111,18 @@ class PartOutcome:
 def part_outcome(reps: np.ndarray, role: np.ndarray, value: np.ndarray, error: np.ndarray,
                  status: int, finest_h: float, margin: float,
                  bound_held: bool = True, widenings: int | None = 0,
-                 n_readmitted: int = 0) -> PartOutcome:
+                 n_readmitted: int = 0, audit: tuple | None = None) -> PartOutcome:
     """A part's outcome from its refinement variables (per-design arrays flat in store order,
     per-part scalars). `reps`: `equal_r_classes` of the store's designs; `widenings` None for a
-    store without `refine_widenings` (refined before the bound check re-admitted designs)."""
-    alive = np.flatnonzero(role >= ROLE["near_tie"])
+    store without `refine_widenings` (refined before the bound check re-admitted designs);
+    `audit`: (designs audited, largest rise, spacing), None for a store without an audit."""
+    alive = np.flatnonzero((role == ROLE["near_tie"]) | (role == ROLE["best"]))
     members = [int(d) for d in alive if reps[d] == d]
     members.sort(key=lambda d: (-value[d], d))
     best = int(np.flatnonzero(role == ROLE["best"])[0]) if (role == ROLE["best"]).any() else -1
     return PartOutcome(REFINE_STATUS_MEANINGS[int(status)], float(finest_h), float(margin), best,
                        int(np.sum(role == ROLE["best"])), members, value, error,
                        bool(bound_held), None if widenings is None else int(widenings),
-                       int(n_readmitted))
+                       int(n_readmitted),
+                       *((int(audit[0]), float(audit[1]), float(audit[2])) if audit is not None
+                         else ()))

@@ -309,7 +309,11 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
                   refine_bound_held=ref.bound_held, refine_bound_used=ref.bound_used,
                   refine_n_contenders=ref.n_contenders, refine_readmitted=ref.readmitted,
                   refine_widenings=ref.widenings, refine_n_readmitted=ref.n_readmitted,
-                  refine_bound_widened=ref.bound_widened)
+                  refine_bound_widened=ref.bound_widened, refine_audit_designs=ref.audit_designs,
+                  refine_audit_rise=ref.audit_rise,
+                  refine_audit_h=np.where(ref.audit_level > 0,
+                                          scene.h / 2.0 ** ref.audit_level.astype(float),
+                                          np.nan))
     with atomic_amend(path) as f:
         for fld in REFINE_FIELDS:
             if fld.name in f:
@@ -331,11 +335,12 @@ def add_refinement(path: Path, scene: Scene, ref, attrs: dict) -> None:
                         "screened caging area is at least (1 - refine_bound_used) times the "
                         "part's best (equal-R designs, same l1, l2, w and r2/r1, count once); "
                         "recomputed at refine_level_h until the best's lead over every other "
-                        "contender exceeds the change between the last two levels of both; "
-                        "where the bound check then fails, the designs that could win are "
-                        "re-admitted and recomputed until it holds (refine_widenings, "
-                        "refine_readmitted; refine_widen_maps of the refine_level_maps) "
-                        "(docs/sweeps.md)",
+                        "contender exceeds the error estimates of both; a stratified sample of "
+                        "the other designs is recomputed too (the audit, refine_audit_*), and "
+                        "where a design left out could then win it is re-admitted and "
+                        "recomputed until none can (refine_widenings, refine_readmitted; "
+                        "refine_widen_maps of the refine_level_maps) (docs/sweeps.md, "
+                        "model-notes D37)",
             **attrs))
 
 
