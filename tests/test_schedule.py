@@ -23,7 +23,7 @@ from hypothesis import given, strategies as st
 import naive_schedule
 from naive import naive_map
 from sweep.cli import main
-from sweep.compute.chassis_maps import pulley_pair_maps
+from sweep.compute.chassis_maps import settings_maps
 from sweep.compute.maps import compute_map
 from sweep.compute.schedules import (Ends, best_of_three, chained, chained_areas, lattice_of,
                                      on_lattice, schedule_values, tie_key)
@@ -159,16 +159,18 @@ def test_the_sweeps_maps_are_compute_maps():
     """chassis_maps (one finger field per pulley pair, the sweep's way) gives compute_map's
     ends and summary, and a palm half-width off the grid falls back to compute_map."""
     part, h = Part(0.8, 0.4), 0.1
-    for widths in ([0.0, 0.4, 1.2], [0.3]):
-        got = pulley_pair_maps(1.2, 0.8, 0.12, 0.06, widths, part, Command(), h, Limits(),
-                               Accuracy(reconfig_step=0.05), Effects())
-        for w, g in zip(widths, got):
-            m = compute_map(Design(1.2, 0.8, 0.12, 0.06, w), part, grid=Grid(h=h),
-                            accuracy=Accuracy(reconfig_step=0.05))
-            for name in ("end_state", "end_index", "caging_score"):
-                assert np.array_equal(getattr(g, name), m.fields[name]), (w, name)
-            assert g.caging_area == m.attrs["caging_area"]
-            assert g.n_tip_prehension == m.attrs["n_tip_prehension"]
+    settings = [(0.12, 0.06, 0.0), (0.2, 0.1, 0.4), (0.12, 0.06, 1.2), (0.12, 0.06, 0.3),
+                (0.2, 0.1, 0.0)]
+    got = settings_maps(1.2, 0.8, settings, part, Command(), h, Limits(),
+                        Accuracy(reconfig_step=0.05), Effects())
+    for (r1, r2, w), g in zip(settings, got):
+        m = compute_map(Design(1.2, 0.8, r1, r2, w), part, grid=Grid(h=h),
+                        accuracy=Accuracy(reconfig_step=0.05))
+        for name in ("end_state", "end_index", "caging_score"):
+            assert np.array_equal(getattr(g, name), m.fields[name]), (w, name)
+        assert np.array_equal(g.x, m.x) and np.array_equal(g.y, m.y)
+        assert g.caging_area == m.attrs["caging_area"]
+        assert g.n_tip_prehension == m.attrs["n_tip_prehension"]
 
 
 def mirrored(m):
@@ -555,13 +557,56 @@ def test_a_rerun_is_a_no_op_and_a_killed_run_resumes(small_store, scheduled, tmp
     res = invoke("schedule", small_store, *OPTS, "--third-switch", "--out", out)
     assert res.exit_code == 0, res.output
     assert not (tmp_path / "killed.h5.work").exists()
-    (da, aa), (db, ab) = contents(scheduled), contents(out)
+    same(scheduled, out)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["computed_cases"] < f["case"].size
+
+
+def test_cases_side_by_side_give_the_same_results(small_store, tmp_path, monkeypatch):
+    """Two threads run two cases at once (each on one thread): the same results as one case
+    after another; killed there, the cases running finish and are kept, and the rerun gives
+    the same results again."""
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("one core")
+    named = ("--chassis", "1.2,0.8", "--chassis", "2.0,1.6")
+    one = tmp_path / "one.h5"
+    assert invoke("schedule", small_store, *OPTS, *named, "--out", one).exit_code == 0
+    opts = [o if o != 1 else 2 for o in OPTS] + list(named)       # --threads 2
+    out = tmp_path / "two.h5"
+    res = invoke("schedule", small_store, *opts, "--out", out)
+    assert res.exit_code == 0, res.output
+    with h5py.File(out, "r") as f:
+        assert f["case"].size == 4
+    same(one, out)
+    real = sched.run_case
+    calls = {"n": 0}
+
+    def dies(case, *args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 3:
+            raise KeyboardInterrupt
+        return real(case, *args, **kwargs)
+
+    killed = tmp_path / "killed.h5"
+    monkeypatch.setattr(sched, "run_case", dies)
+    res = invoke("schedule", small_store, *opts, "--out", killed)
+    assert res.exit_code == 130, res.output
+    assert not killed.exists()
+    kept = sorted(p.name for p in (tmp_path / "killed.h5.work").glob("case-*.npz"))
+    assert len(kept) >= 2
+    monkeypatch.setattr(sched, "run_case", real)
+    assert invoke("schedule", small_store, *opts, "--out", killed).exit_code == 0
+    same(one, killed)
+
+
+def same(a: Path, b: Path) -> None:
+    (da, aa), (db, ab) = contents(a), contents(b)
     assert sorted(da) == sorted(db)
     for k in da:
         assert np.array_equal(da[k], db[k], equal_nan=da[k].dtype.kind == "f"), k
     assert set(aa) == set(ab)
-    with h5py.File(out, "r") as f:
-        assert f.attrs["computed_cases"] < f["case"].size
 
 
 @pytest.mark.parametrize("args, names", [

@@ -33,6 +33,7 @@ do not depend on interruptions: each finished case is saved atomically in the wo
 """
 from __future__ import annotations
 
+import concurrent.futures
 import hashlib
 import io
 import itertools
@@ -46,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from ..compute.chassis_maps import pulley_pair_maps
+from ..compute.chassis_maps import settings_maps
 from ..compute.schedules import (TIE_DIGITS, best_of_three, chained_areas, lattice_of,
                                  on_lattice, schedule_values, tie_key)
 from ..compute.threads import numba_threads
@@ -251,19 +252,13 @@ def case_level(case: Case, scene: Scene, table: list, chosen: np.ndarray, h: flo
     """The maps of the settings `chosen` at spacing h and every schedule among them: (Level,
     the settings' Ends on their lattice)."""
     t0 = time.perf_counter()
-    part = Part(case.r, case.mu)
-    maps = {}
-    by_pair: dict = {}
-    for s in chosen.tolist():
-        by_pair.setdefault((table[s].r1, table[s].r2), []).append(s)
-    for (r1, r2), members in by_pair.items():
-        got = pulley_pair_maps(case.l1, case.l2, r1, r2, [table[s].w for s in members], part,
-                               scene.commands[0], h, scene.limits, scene.accuracy, scene.effects)
-        maps.update(zip(members, got))
+    maps = settings_maps(case.l1, case.l2, [(table[s].r1, table[s].r2, table[s].w)
+                                            for s in chosen.tolist()],
+                         Part(case.r, case.mu), scene.commands[0], h, scene.limits,
+                         scene.accuracy, scene.effects)
     t1 = time.perf_counter()
-    ordered = [maps[s] for s in chosen.tolist()]
-    lat = lattice_of(ordered, h, case.r)
-    ends = [on_lattice(m, lat) for m in ordered]
+    lat = lattice_of(maps, h, case.r)
+    ends = [on_lattice(m, lat) for m in maps]
     caging, tip = schedule_values(ends, h)
     t2 = time.perf_counter()
     return Level(h, chosen.copy(), caging, tip, t1 - t0, t2 - t1), ends
@@ -541,25 +536,26 @@ def schedule_store(store: Path, out: Path, parts: list, settings: ScheduleSettin
         if restart:
             shutil.rmtree(work, ignore_errors=True)
         prepare_work(work, ident)
-        results, computed = [], 0
+        results = [load_case(_case_file(work, i), case) for i, case in enumerate(cases)]
+        todo = [i for i, got in enumerate(results) if got is None]
+        resumed = float(sum(lv.seconds_maps + lv.seconds_values
+                            for got in results if got is not None for lv in got.levels))
         bar = _progress(len(cases), progress)
+        bar.update(len(cases) - len(todo))
+        started = time.perf_counter()
         try:
-            with numba_threads(threads):
-                for i, case in enumerate(cases):
-                    got = load_case(_case_file(work, i), case)
-                    if got is None:
-                        ensure_compiled()
-                        bar.set_description(f"schedule l1={case.l1:g} l2={case.l2:g} "
-                                            f"r={case.r:g} mu={case.mu:g}")
-                        got = run_case(case, scene, table, s)
-                        save_case(_case_file(work, i), got)
-                        computed += 1
-                    results.append(got)
+            with numba_threads(threads) as n_threads:
+                if todo:
+                    ensure_compiled()
+                for i, got in run_cases([cases[i] for i in todo], scene, table, s, n_threads,
+                                        [_case_file(work, i) for i in todo]):
+                    results[todo[i]] = got
                     bar.update(1)
         finally:
             bar.close()
+        computed = len(todo)
         data = tables(results, table, s)
-        compute = float(np.sum(data["seconds_maps"]) + np.sum(data["seconds_values"]))
+        compute = time.perf_counter() - started + resumed
         screening = float(view.attrs.get("compute_seconds", math.nan))
         wall = time.perf_counter() - t0
         write_schedules(out, data, dict(
@@ -651,6 +647,37 @@ def tables(results: list, table: list, s: ScheduleSettings) -> dict:
                 d["third_gain"][c, o], d["third_error"][c, o] = gain, u
                 d["third_adds"][c, o] = int(adds)
     return d
+
+
+def run_cases(cases: list, scene: Scene, table: list, s: ScheduleSettings, threads: int,
+              paths: list):
+    """Compute `cases`, each saved to its path when done; yield (index, CaseResult) as they
+    finish. Several cases at once, each on its share of the threads: a case's maps at the finer
+    spacings are few, and its schedules are read on one core, so cases side by side keep the
+    cores busy (the kernels release the GIL). Ctrl-C: the cases running finish and are saved,
+    the others do not start."""
+    workers = max(1, min(threads, len(cases)))
+    inner = max(1, threads // workers)
+
+    def one(k):
+        with numba_threads(inner):
+            got = run_case(cases[k], scene, table, s)
+        save_case(paths[k], got)
+        return got
+
+    if workers == 1:
+        for k in range(len(cases)):
+            yield k, one(k)
+        return
+    with concurrent.futures.ThreadPoolExecutor(max_workers=workers) as pool:
+        futures = {pool.submit(one, k): k for k in range(len(cases))}
+        try:
+            for future in concurrent.futures.as_completed(futures):
+                yield futures[future], future.result()
+        except BaseException:
+            for future in futures:
+                future.cancel()
+            raise
 
 
 def _progress(total: int, enabled: bool):
