@@ -378,16 +378,23 @@ def test_mirrored_ends_give_mirrored_schedules(drawn):
 def test_the_best_of_three_is_the_brute_forces(drawn):
     _, _, ends = drawn
     h = 0.1
-    got = best_of_three(ends, h)
+    got = best_of_three(ends, h, k=2)
     for o, name in enumerate(("caging", "tip_prehension")):
         brute = [(plain(ends, [x, y, z], h)[o], (x, y, z)) for x in range(len(ends))
                  for y in range(len(ends)) for z in range(len(ends)) if y != x and z != y]
         best = max([v for v, _ in brute], default=0.0)
-        value, triple = got[name]
-        assert tie_key(value) == tie_key(max(best, 0.0))
-        if triple[0] >= 0:
-            assert plain(ends, list(triple), h)[o] == pytest.approx(value, rel=1e-12,
-                                                                    abs=1e-15)
+        found = got[name]
+        assert len(found) <= 2
+        if not best > 0:
+            assert not found
+            continue
+        assert tie_key(found[0][0]) == tie_key(best)
+        for value, triple in found:
+            assert plain(ends, list(triple), h)[o] == pytest.approx(value, rel=1e-12, abs=1e-15)
+        # each draw setting's best, the largest first, no draw setting twice
+        assert len({t[0] for _, t in found}) == len(found)
+        assert [tie_key(v) for v, _ in found] == sorted((tie_key(v) for v, _ in found),
+                                                        reverse=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -510,28 +517,47 @@ def test_the_stores_identities(small_store, scheduled):
 
 
 def test_the_third_switch_is_recomputed_independently(small_store, scheduled):
-    """The stored best three-setting schedule at the first spacing is what the slow reference
-    gives on compute_map's maps of its three settings."""
+    """The stored three-setting schedule and the best of two, at both spacings, are what the
+    slow reference gives on compute_map's maps of their settings."""
     from sweep.config.parse import scene_from_frozen
     from sweep.storage.store import read_store
 
     scene = scene_from_frozen(read_store(small_store).frozen)
     with h5py.File(scheduled, "r") as f:
-        c, o = 0, 0
-        triple = [int(t) for t in f["third_settings"][c, o]]
-        assert min(triple) >= 0
-        part = Part(float(f["r"][c]), float(f["mu"][c]))
-        maps = [compute_map(Design(float(f["l1"][c]), float(f["l2"][c]),
+        checked = 0
+        for c in range(f["case"].size):
+            for o in range(2):
+                triple = [int(t) for t in f["third_settings"][c, o]]
+                if min(triple) < 0:
+                    continue
+                pair = [int(t) for t in f["third_two_settings"][c, o]]
+                part = Part(float(f["r"][c]), float(f["mu"][c]))
+                for k in range(2):
+                    h = float(f["h"][k])
+
+                    def m(t, c=c, part=part, h=h):
+                        return compute_map(
+                            Design(float(f["l1"][c]), float(f["l2"][c]),
                                    float(f["setting_r1"][t]), float(f["setting_r2"][t]),
                                    float(f["setting_w"][t])), part, scene.commands[0],
-                            Grid(h=float(f["h"][0])), scene.limits, scene.accuracy,
-                            scene.effects) for t in triple]
-        ref = naive_schedule.schedule(maps)
-        h = float(f["h"][0])
-        assert f["third_area"][c, o, 0] == pytest.approx(ref["lam"] * h * h, rel=1e-9,
-                                                         abs=1e-15)
-        pair = [int(t) for t in f["third_two_settings"][c, o]]
-        assert f["third_best_two"][c, o, 0] == f["schedule_area"][c, o, 0, pair[0], pair[1]]
+                            Grid(h=h), scene.limits, scene.accuracy, scene.effects)
+
+                    ref = naive_schedule.schedule([m(t) for t in triple])
+                    got = f["third_area"][c, o, k]
+                    want = ref["lam"] if o == 0 else ref["n_tip"]
+                    assert got == pytest.approx(want * h * h, rel=1e-9, abs=1e-15), (c, o, k)
+                    two = naive_schedule.schedule([m(t) for t in dict.fromkeys(pair)])
+                    want = two["lam"] if o == 0 else two["n_tip"]
+                    assert f["third_best_two"][c, o, k] == pytest.approx(want * h * h,
+                                                                         rel=1e-9, abs=1e-15)
+                d = f["third_area"][c, o, 1] - f["third_best_two"][c, o, 1]
+                u = (abs(f["third_area"][c, o, 1] - f["third_area"][c, o, 0])
+                     + abs(f["third_best_two"][c, o, 1] - f["third_best_two"][c, o, 0]))
+                assert f["third_error"][c, o] == pytest.approx(u)
+                assert bool(f["third_adds"][c, o]) == (d > u and tie_key(
+                    f["third_area"][c, o, 1]) != tie_key(f["third_best_two"][c, o, 1]))
+                checked += 1
+        assert checked > 0
 
 
 def test_a_rerun_is_a_no_op_and_a_killed_run_resumes(small_store, scheduled, tmp_path,

@@ -220,10 +220,10 @@ def schedule_values(ends: list, h: float) -> tuple[np.ndarray, np.ndarray]:
     return area(lam, h), area(count, h)
 
 
-def best_of_three(ends: list, h: float) -> dict:
-    """The best schedule of three settings X -> Y -> Z (two switches: Y != X, Z != Y) for
-    caging and for tip prehension: {"caging": (area, (X, Y, Z)), "tip_prehension": ...}
-    ((0.0, (-1, -1, -1)) when no such schedule ends any start so)."""
+def best_of_three(ends: list, h: float, k: int = 1) -> dict:
+    """The best schedules of three settings X -> Y -> Z (two switches: Y != X, Z != Y) for
+    caging and for tip prehension, each X's best and of those the k largest (positive; ties at
+    TIE_DIGITS to the first X): {"caging": [(area, (X, Y, Z)), ...], "tip_prehension": ...}."""
     from scipy.sparse import csr_matrix
 
     n = len(ends)
@@ -232,7 +232,7 @@ def best_of_three(ends: list, h: float) -> dict:
     tip_t = np.ascontiguousarray(np.stack([e.tip for e in ends]).T.astype(np.float64)) \
         if n else None
     go = [np.isin(e.state, CONTINUING) for e in ends]
-    best = {"caging": (0.0, (-1, -1, -1)), "tip_prehension": (0.0, (-1, -1, -1))}
+    found: dict = {"caging": [], "tip_prehension": []}
     for x in range(n):
         q, c = _continuing_ends(ends[x])
         if not q.size:
@@ -254,10 +254,10 @@ def best_of_three(ends: list, h: float) -> dict:
             v[np.arange(n), np.arange(n)] = -np.inf    # Z = Y: no second switch
             v[x, :] = -np.inf                          # Y = X: no first switch
             y, z = np.unravel_index(int(np.argmax(v)), v.shape)
-            value = area(float(v[y, z]), h)
-            if tie_key(value) > tie_key(best[name][0]):
-                best[name] = (value, (x, int(y), int(z)))
-    return best
+            if v[y, z] > 0:
+                found[name].append((area(float(v[y, z]), h), (x, int(y), int(z))))
+    return {name: sorted(f, key=lambda t: (-tie_key(t[0]), t[1]))[:k]
+            for name, f in found.items()}
 
 
 def tie_key(v) -> np.ndarray | float:

@@ -24,8 +24,11 @@ case, a chassis and a part:
 5. *Verdict.* d = best schedule - best fixed, u = error(schedule) + error(fixed), both at the
    finest level: "gain" when d > u, else "none"; with a single spacing no error exists
    ("unestimated" when d > 0).
-6. With `third_switch`, at level 0: the best schedule of three settings against the best of two
-   (D35: measured, not one of the schedules).
+6. With `third_switch`: at level 0 each draw setting's best schedule of three settings (two
+   switches), the `contenders` largest of those recomputed at the second spacing together with
+   the settings the ladder carries there; their best against the best schedule of at most two
+   of those settings at that spacing, each with its change from level 0 (D35: measured, not
+   one of the schedules).
 
 A case depends on its maps alone, and each level's settings on the level before, so the results
 do not depend on interruptions: each finished case is saved atomically in the work directory
@@ -273,7 +276,7 @@ def run_case(case: Case, scene: Scene, table: list, s: ScheduleSettings) -> Case
         out.levels.append(level)
         if k == 0 and s.third_switch:
             t = time.perf_counter()
-            out.three = third_switch(case, scene, table, level, ends, s.ladder)
+            out.three = third_switch(case, scene, table, level, ends, s)
             level.seconds_values += time.perf_counter() - t
         del ends
         if k + 1 < len(s.ladder):
@@ -284,35 +287,51 @@ def run_case(case: Case, scene: Scene, table: list, s: ScheduleSettings) -> Case
 
 
 def third_switch(case: Case, scene: Scene, table: list, level: Level, ends: list,
-                 ladder: tuple) -> dict:
-    """Step 6: per objective, the best three-setting schedule at level 0 and the best of at
-    most two settings there, both recomputed at the ladder's second spacing (their settings'
-    maps only): {objective: Third}."""
-    three = best_of_three(ends, level.h)
+                 s: ScheduleSettings) -> dict:
+    """Step 6: per objective, the `contenders` best three-setting schedules at level 0 (each
+    draw setting's best, the largest of those) recomputed at the ladder's second spacing with
+    the settings the ladder carries there; the best of them against the best schedule of at
+    most two of those settings, both at that spacing, each with its change from level 0:
+    {objective: Third}."""
+    three = best_of_three(ends, level.h, s.contenders)
     out = {}
-    for objective in OBJECTIVES:
+    finer = fine_ends = None
+    if len(s.ladder) > 1:
+        carried = contender_settings(level, table, s.contenders)
+        triples = {t for objective in OBJECTIVES for _, tr in three[objective] for t in tr}
+        chosen = np.array(sorted(set(int(level.settings[i]) for i in triples)
+                                 | set(carried.tolist())), dtype=np.int64)
+        if chosen.size:
+            finer, fine_ends = case_level(case, scene, table, chosen, s.ladder[1])
+    for o, objective in enumerate(OBJECTIVES):
         v = level.values(objective)
-        a, b = best_pair(v, kind_mask(table, level.settings, "schedule"))
-        area3, (x, y, z) = three[objective]
-        triple = tuple(int(level.settings[i]) if i >= 0 else -1 for i in (x, y, z))
-        pair = (int(level.settings[a]), int(level.settings[b]))
-        areas3, areas2 = [area3], [float(v[a, b])]
-        if len(ladder) > 1 and min(triple) >= 0:
-            chosen = np.array(sorted(set(triple) | set(pair)), dtype=np.int64)
-            finer, fine_ends = case_level(case, scene, table, chosen, ladder[1])
-            at = {int(s_): i for i, s_ in enumerate(chosen)}
-            seq = [fine_ends[at[t]] for t in triple]
-            areas3.append(chained_areas(seq, finer.h)[OBJECTIVES.index(objective)])
-            areas2.append(value_at(finer, objective, *pair))
-        out[objective] = Third(triple, pair, areas3, areas2)
+        cands = [(value, tuple(int(level.settings[i]) for i in tr))
+                 for value, tr in three[objective]]
+        if finer is None:
+            a, b = best_pair(v, kind_mask(table, level.settings, "schedule"))
+            pair = (int(level.settings[a]), int(level.settings[b]))
+            value, triple = cands[0] if cands else (0.0, (-1, -1, -1))
+            out[objective] = Third(triple, pair, [value], [float(v[a, b])])
+            continue
+        at = {int(t): i for i, t in enumerate(finer.settings)}
+        fine = [chained_areas([fine_ends[at[t]] for t in tr], finer.h)[o] for _, tr in cands]
+        vf = finer.values(objective)
+        a, b = best_pair(vf, kind_mask(table, finer.settings, "schedule"))
+        pair = (int(finer.settings[a]), int(finer.settings[b]))
+        pair_areas = [value_at(level, objective, *pair), float(vf[a, b])]
+        if not cands:
+            out[objective] = Third((-1, -1, -1), pair, [0.0, 0.0], pair_areas)
+            continue
+        best = max(range(len(cands)), key=lambda i: (tie_key(fine[i]), -i))
+        out[objective] = Third(cands[best][1], pair, [cands[best][0], fine[best]], pair_areas)
     return out
 
 
 @dataclass
 class Third:
-    """The third switch measured (step 6): the best three-setting schedule at level 0 (setting
-    indices; -1: none), the best of at most two settings there, and both areas at level 0 and,
-    when the ladder has a second spacing, there."""
+    """The third switch measured (step 6): the best three-setting schedule (setting indices;
+    -1: none) and the best of at most two settings, both chosen at the ladder's second spacing
+    (at level 0 with a single spacing), and their areas at level 0 and there."""
 
     triple: tuple
     pair: tuple

@@ -163,13 +163,15 @@ def write_schedules(path: Path, data: dict, attrs: dict) -> None:
             write_coordinate(f, "pair_stage", np.array(STAGES[:2], dtype=object),
                              dict(long_name="the settings of a two-setting schedule, in order"))
             _var(f, "third_settings", np.asarray(data["third_settings"], np.int16),
-                 CO + ("stage",), "the best schedule of three settings (two switches) over "
-                 "every setting at rung 0: its settings (indices into setting; -1: none)",
-                 compression=False)
+                 CO + ("stage",), "the best schedule of three settings (two switches): each "
+                 "draw setting's best at rung 0, the `contenders` largest recomputed at rung 1 "
+                 "and the best there (rung 0 with one rung); its settings (indices into "
+                 "setting; -1: none)", compression=False)
             _var(f, "third_area", data["third_area"], CO + ("level",),
-                 "its area at rung 0 and, recomputed, at rung 1 (NaN beyond)", AREA)
+                 "its area at rung 0 and at rung 1 (NaN beyond)", AREA)
             _var(f, "third_two_settings", np.asarray(data["third_two_settings"], np.int16),
-                 CO + ("pair_stage",), "the best schedule of at most two settings at rung 0",
+                 CO + ("pair_stage",), "the best schedule of at most two settings among those "
+                 "computed at rung 1 (the triples' and the ladder's; rung 0 with one rung)",
                  compression=False)
             _var(f, "third_best_two", data["third_best_two"], CO + ("level",),
                  "its area at rung 0 and at rung 1 (NaN beyond)", AREA)
