@@ -246,6 +246,19 @@ def test_a_synthetic_pair_with_a_known_answer():
     assert list(state) == [N, C, C, C, N] and list(end) == [-1, 1, 1, 3, -1]
 
 
+def test_no_switch_is_no_switch():
+    """A stall recorded at a grid point whose own trajectory goes on (there: to a cage) stays a
+    stall under X -> X (D35), where composing X with itself would cage it."""
+    X = toy([-1, 0, 1], [S, C, C], [1, 2, 2], [0, 0, 0.5])
+    Y = toy([-1, 0, 1], [C, C, C], [0, 1, 2], [0.25, 0.25, 0.25])
+    lat = lattice_of([X, Y], 1.0, 0.0)
+    ends = [on_lattice(m, lat) for m in (X, Y)]
+    caging, _ = schedule_values(ends, 1.0)
+    assert caging[0, 0] == 1.0                      # the starts at 0 and 1, caged at 1
+    assert chained_areas([ends[0], ends[0]], 1.0)[0] == 1.5     # what a self-switch would say
+    assert caging[0, 1] == pytest.approx(0.75)      # Y takes the stall and both cages on
+
+
 def level(h, settings, caging, tip):
     return sched.Level(h, np.array(settings), np.array(caging, float), np.array(tip, float))
 
