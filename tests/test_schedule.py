@@ -470,7 +470,8 @@ def test_the_file_is_self_describing(scheduled):
             assert "long_name" in ds[name].attrs, name
         a = ds.attrs
         assert a["sweep_file_kind"] == "sweep-schedule"
-        for key in ("sweep_version", "config_hash", "identity", "ladder", "effects_on",
+        for key in ("sweep_version", "config_hash", "store_config", "grid_h", "identity",
+                    "ladder", "effects_on",
                     "switch_rule", "verdict_rule", "created_utc", "compute_seconds",
                     "wall_seconds", "screening_compute_seconds", "numba_version"):
             assert key in a, key

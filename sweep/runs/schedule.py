@@ -413,7 +413,8 @@ def schedule_store(store: Path, out: Path, parts: list, settings: ScheduleSettin
         wall = time.perf_counter() - t0
         write_schedules(out, data, dict(
             title=f"sweep schedule: {scene.name}", store=str(store), store_name=scene.name,
-            config_hash=scene.config_hash, effects_on=" ".join(scene.effects.names_on()),
+            config_hash=scene.config_hash, store_config=view.frozen, grid_h=scene.h,
+            effects_on=" ".join(scene.effects.names_on()),
             identity=ident, settings=s.as_dict(), ladder=list(s.ladder),
             contenders=s.contenders, chassis=[list(c) for c in s.chassis],
             third_switch=s.third_switch, switch_rule=SWITCH_RULE, verdict_rule=VERDICT_RULE,
