@@ -29,6 +29,7 @@ from sweep.compute.schedules import (Ends, best_of_three, chained, chained_areas
                                      on_lattice, schedule_values, tie_key)
 from sweep.model import (END_CAGED, END_EJECTION, END_NONE, END_STALLED, END_TIP_PREHENSION,
                          Accuracy, Command, Design, Effects, Grid, Limits, Part)
+from sweep.runs import ladder
 from sweep.runs import schedule as sched
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -260,11 +261,11 @@ def test_no_switch_is_no_switch():
 
 
 def level(h, settings, caging, tip):
-    return sched.Level(h, np.array(settings), np.array(caging, float), np.array(tip, float))
+    return ladder.Level(h, np.array(settings), np.array(caging, float), np.array(tip, float))
 
 
-TABLE = [sched.Setting(0.1, 0.05, 0.0), sched.Setting(0.1, 0.05, 0.4),
-         sched.Setting(0.1, 0.1, 0.0), sched.Setting(0.1, 0.1, 0.4)]
+TABLE = [ladder.Setting(0.1, 0.05, 0.0), ladder.Setting(0.1, 0.05, 0.4),
+         ladder.Setting(0.1, 0.1, 0.0), ladder.Setting(0.1, 0.1, 0.4)]
 
 
 def test_verdicts_on_a_hand_made_ladder():
@@ -273,45 +274,45 @@ def test_verdicts_on_a_hand_made_ladder():
     caging0 = [[2.0, 2.1, 2.5, 3.5], [1.0, 1.0, 0, 0], [0, 0, 0.5, 0], [0, 0, 0, 1.5]]
     caging1 = [[2.2, 2.4, 2.0, 3.2], [1.0, 1.1, 0, 0], [0, 0, 0.5, 0], [0, 0, 0, 1.4]]
     zero = np.zeros((4, 4))
-    res = sched.CaseResult(None, [level(0.1, [0, 1, 2, 3], caging0, zero),
+    res = ladder.CaseResult(None, [level(0.1, [0, 1, 2, 3], caging0, zero),
                                   level(0.05, [0, 1, 2, 3], caging1, zero)])
-    fixed = sched.best_of_kind(res, TABLE, "caging", "fixed", 2)
-    best = sched.best_of_kind(res, TABLE, "caging", "schedule", 2)
+    fixed = ladder.best_of_kind(res, TABLE, "caging", "fixed", 2)
+    best = ladder.best_of_kind(res, TABLE, "caging", "schedule", 2)
     assert (fixed.draw, fixed.hold, best.draw, best.hold) == (0, 0, 0, 3)
     assert best.error == pytest.approx(0.3) and fixed.error == pytest.approx(0.2)
-    d, u, verdict = sched.verdict(fixed, best, 1)
+    d, u, verdict = ladder.verdict(fixed, best, 1)
     assert (d, u, verdict) == (pytest.approx(1.0), pytest.approx(0.5), "gain")
-    r_sw = sched.best_of_kind(res, TABLE, "caging", "r_switch", 2)
-    w_sw = sched.best_of_kind(res, TABLE, "caging", "w_switch", 2)
+    r_sw = ladder.best_of_kind(res, TABLE, "caging", "r_switch", 2)
+    w_sw = ladder.best_of_kind(res, TABLE, "caging", "w_switch", 2)
     assert (r_sw.draw, r_sw.hold) == (0, 2) and (w_sw.draw, w_sw.hold) == (0, 1)
     caging1[0][3] = 4.9                        # a change of 1.4: d = 2.7 > u = 1.4 + 0.2
     res.levels[1] = level(0.05, [0, 1, 2, 3], caging1, zero)
-    best = sched.best_of_kind(res, TABLE, "caging", "schedule", 2)
-    d, u, verdict = sched.verdict(fixed, best, 1)
+    best = ladder.best_of_kind(res, TABLE, "caging", "schedule", 2)
+    d, u, verdict = ladder.verdict(fixed, best, 1)
     assert d == pytest.approx(2.7) and u == pytest.approx(1.6) and verdict == "gain"
     caging1[0][3] = 2.3                        # d = 0.1 < u = 1.2 + 0.2
     res.levels[1] = level(0.05, [0, 1, 2, 3], caging1, zero)
-    best = sched.best_of_kind(res, TABLE, "caging", "schedule", 2)
+    best = ladder.best_of_kind(res, TABLE, "caging", "schedule", 2)
     assert (best.draw, best.hold) == (0, 1)    # 2.4: the best schedule is now 0 -> 1
-    d, u, verdict = sched.verdict(fixed, best, 1)
+    d, u, verdict = ladder.verdict(fixed, best, 1)
     assert verdict == "none" and d == pytest.approx(0.2) and u == pytest.approx(0.5)
     # one level: no error estimate
-    one = sched.CaseResult(None, [res.levels[0]])
-    f1, b1 = (sched.best_of_kind(one, TABLE, "caging", k, 1) for k in ("fixed", "schedule"))
-    assert sched.verdict(f1, b1, 0)[2] == "unestimated" and math.isnan(b1.error)
+    one = ladder.CaseResult(None, [res.levels[0]])
+    f1, b1 = (ladder.best_of_kind(one, TABLE, "caging", k, 1) for k in ("fixed", "schedule"))
+    assert ladder.verdict(f1, b1, 0)[2] == "unestimated" and math.isnan(b1.error)
 
 
 def test_ties_go_to_the_fixed_setting_and_contenders_are_positive():
     caging = np.array([[1.0, 1.0, 0.0, 0.0], [0.0, 0.5, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0],
                        [0.0, 0.0, 0.0, 0.0]])
     lv = level(0.1, [0, 1, 2, 3], caging, np.zeros((4, 4)))
-    res = sched.CaseResult(None, [lv])
-    best = sched.best_of_kind(res, TABLE, "caging", "schedule", 1)
+    res = ladder.CaseResult(None, [lv])
+    best = ladder.best_of_kind(res, TABLE, "caging", "schedule", 1)
     assert (best.draw, best.hold) == (0, 0)
-    assert sched.verdict(sched.best_of_kind(res, TABLE, "caging", "fixed", 1), best, 0)[:1] \
+    assert ladder.verdict(ladder.best_of_kind(res, TABLE, "caging", "fixed", 1), best, 0)[:1] \
         == (0.0,)
     # the contenders: fixed 0 and 1, the switch 0 -> 1 (w switch); nothing of 2 and 3
-    assert list(sched.contender_settings(lv, TABLE, 2)) == [0, 1]
+    assert list(ladder.contender_settings(lv, TABLE, 2)) == [0, 1]
 
 
 # ---------------------------------------------------------------------------------------------

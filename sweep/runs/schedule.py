@@ -65,9 +65,9 @@ from ..schema import REFINE_ROLE_MEANINGS, REFINE_STATUS_MEANINGS
 from ..storage.schedule import (KINDS, OBJECTIVES, SOURCES, STATUSES, VERDICTS, read_identity,
                                 write_schedules)
 from ..storage.store import read_store
-from .ladder import (LADDER_RULE, VERDICT_RULE, Best, CaseResult, Level, Setting, Third,  # noqa: F401
-                     best_of_kind, best_pair, contender_settings, finest, kind_mask,
-                     ranked_pairs, r_key, screened_best, value_at, verdict)
+from .ladder import (LADDER_RULE, VERDICT_RULE, CaseResult, Level, Setting, Third, best_of_kind,
+                     best_pair, contender_settings, finest, kind_mask, r_key, screened_best,
+                     value_at, verdict)
 from .rundir import read_json
 
 DEFAULT_CHASSIS = ((2.0, 1.6),)
