@@ -56,7 +56,7 @@ class CaseResult:
 
     case: object                    # sweep.runs.schedule.Case
     levels: list = field(default_factory=list)
-    #: the third switch measured (step 6): objective -> Third
+    #: the third switch measured: objective -> Third
     three: dict = field(default_factory=dict)
 
 
@@ -80,12 +80,15 @@ def ranked_pairs(values: np.ndarray, mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def best_pair(values: np.ndarray, mask: np.ndarray) -> tuple[int, int] | None:
+    """The first of `ranked_pairs` (None: no pair of the kind)."""
     pairs = ranked_pairs(values, mask)
     return pairs[0] if pairs else None
 
 
 def contender_settings(level: Level, table: list, k: int) -> np.ndarray:
-    """The settings the next spacing computes (module docstring, step 4)."""
+    """The settings the next spacing computes: per objective the `k` best fixed settings and
+    the `k` best switches (X != Y), the best R switch (w kept) and the best w switch (R kept),
+    each where its area is positive (ties as `ranked_pairs`)."""
     keep: set = set()
     for objective in OBJECTIVES:
         v = level.values(objective)
@@ -97,12 +100,12 @@ def contender_settings(level: Level, table: list, k: int) -> np.ndarray:
     return np.array(sorted(keep), dtype=np.int64)
 
 
-
 @dataclass
 class Third:
-    """The third switch measured (step 6): the best three-setting schedule (setting indices;
-    -1: none) and the best of at most two settings, both chosen at the ladder's second spacing
-    (at level 0 with a single spacing), and their areas at level 0 and there."""
+    """The third switch measured (`sweep.runs.schedule`, step 6): the best three-setting
+    schedule (setting indices; -1: none) and the best of at most two settings, both chosen at
+    the ladder's second spacing (at level 0 with a single spacing), and their areas at level 0
+    and there."""
 
     triple: tuple
     pair: tuple
@@ -121,7 +124,6 @@ class Third:
             return d, math.nan, d > 0
         u = abs(self.areas[1] - self.areas[0]) + abs(self.pair_areas[1] - self.pair_areas[0])
         return d, u, d > u
-
 
 
 # ---------------------------------------------------------------------------------------------
