@@ -37,9 +37,16 @@ PATH_COLOURS = ("white", "#ffd23f")      # the draw map's path, the hold map's
 
 
 def schedule_file(st: StoreData) -> Path | None:
-    """The store's schedules, if `sweep schedule` has been run on it."""
+    """The store's schedules, if `sweep schedule` has been run on it (a file beside it made
+    from another config is not this store's)."""
     p = schedule_path(st.path)
-    return p if p.is_file() else None
+    if not p.is_file():
+        return None
+    try:
+        made_from = read_schedules(p)["attrs"].get("config_hash")
+    except (OSError, ValueError, KeyError):
+        return None
+    return p if made_from == st.attrs.get("config_hash") else None
 
 
 # ---------------------------------------------------------------------------------------------
