@@ -7,7 +7,7 @@ PY     := $(VENV)/bin/python
 RUN_STAMP := $(VENV)/.installed-run
 STAMP     := $(VENV)/.installed
 
-.PHONY: install run friction optimize map test test-long explore lint test-slurm bench paper clean
+.PHONY: install run friction optimize variable map test test-long explore lint test-slurm bench paper clean
 
 # pip byte-compiles every file it installs on one core (6,155 here, 2,571 of them the packages'
 # own tests); compileall on every core, without those tests, takes a third of that
@@ -59,6 +59,18 @@ friction: $(RUN_STAMP)
 # figure of the optimised scene (optimization_2.png; redone only when the results changed).
 optimize: $(RUN_STAMP)
 	$(VENV)/bin/sweep optimize results/paper-collision.h5 --parts all --objective worst
+	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
+
+# Variable geometry in the grasp (docs/variable-geometry.md, MODEL 12): on the stores `make run`
+# wrote, per part every schedule "draw in with one setting (R, w), hold with another" of its
+# best chassis and of (2.0, 1.6), the best against the best fixed setting with its error
+# (ladder h, h/2, h/4), into results/paper.schedule.h5 and results/paper-collision.schedule.h5
+# (resumes if killed, a no-op when done); then `make run`'s report again, now with section 7
+# and variable_geometry_1.png, _2.png. Its own target: it costs 0.26-0.33x the screening of a
+# scene (docs/performance.md), above the 0.2x `make run` may take.
+variable: $(RUN_STAMP)
+	$(VENV)/bin/sweep schedule results/paper.h5
+	$(VENV)/bin/sweep schedule results/paper-collision.h5
 	$(VENV)/bin/sweep report results/paper.h5 results/paper-collision.h5 --out results/
 
 # One energy map of the issue's reference design, with its plot.

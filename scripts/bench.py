@@ -20,10 +20,10 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from benchmarks import (baseline, baseline_map, collision, compilation, effects,  # noqa: E402
-                        manipulation, scale, trajectory, trees)
+                        manipulation, scale, schedule, trajectory, trees)
 
 SUBCOMMANDS = [baseline, baseline_map, compilation, collision, effects, manipulation, trajectory,
-               trees, scale]
+               trees, scale, schedule]
 
 
 def parser() -> argparse.ArgumentParser:

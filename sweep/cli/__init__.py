@@ -7,6 +7,7 @@
     report.py    sweep report           the paper's experiments from one store, or two scenes
     accuracy.py  sweep accuracy         accuracy settings versus time on a config's maps
     optimize.py  sweep optimize         the best design between the grid's points
+    schedule.py  sweep schedule         variable geometry in the grasp: draw in, then hold
     common.py    what the commands share: error handling (`user_errors`), `SweepCommand`,
                  `SweepGroup`, parameter types and options (CONFIG, THREADS, WAIT, ...)
 
@@ -19,7 +20,7 @@ from __future__ import annotations
 import click
 
 from .. import __version__
-from . import accuracy, map, optimize, report, results, run, slurm
+from . import accuracy, map, optimize, report, results, run, schedule, slurm
 from .common import SweepGroup
 
 
@@ -37,7 +38,7 @@ def main():
 #: Every command, once.
 COMMANDS = (map.map_command, run.run, slurm.slurm_command, slurm.status, run.merge, run.refine,
             results.top, results.show, report.report, accuracy.accuracy,
-            optimize.optimize)
+            optimize.optimize, schedule.schedule)
 
 
 def register(group: click.Group) -> None:

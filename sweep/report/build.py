@@ -15,6 +15,9 @@ writes into `out_dir`:
 - with Scenario C (friction modulation, `outputs.scenario_c`): `friction.png`, `friction.csv`,
   `friction_candidates.csv`, `caging_modulation.csv`: per part A, C and B side by side, C's
   candidates, and caging under modulation of A's best candidate;
+- with the store's schedules beside it (`sweep schedule`): `variable_geometry.png`,
+  `variable_geometry.csv`: per part the best fixed setting against the best schedule "draw in,
+  then hold" (MODEL 12);
 - `report.md`: every table, the rules used, the settings, the run time and a templated reading;
 - `report.json`: what the report was made from (a rerun on the same store is a no-op).
 
@@ -36,7 +39,7 @@ from .. import __version__
 from ..files import text_bytes
 from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, best_columns,
                      refinement_rows)
-from . import caging, friction, manipulation, optimized, tip, usage
+from . import caging, friction, manipulation, optimized, tip, usage, variable
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
                    fmt, identity, md_table, part_text, report_files, resolve_top_k)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
@@ -63,8 +66,11 @@ FRICTION_FILES = ("friction.png", "friction.csv", "friction_candidates.csv",
 OPTIMIZATION_FILES = ("optimization.png", "optimization.csv")
 
 
+VARIABLE_FILES = ("variable_geometry.png", "variable_geometry.csv")
+
+
 ALL_FILES = (CAGING_FILES + MANIPULATION_FILES + FRICTION_FILES + OPTIMIZATION_FILES
-             + ("report.md", MARKER))
+             + VARIABLE_FILES + ("report.md", MARKER))
 
 
 @dataclass
@@ -85,6 +91,8 @@ class Report:
     files: list[str] = field(default_factory=list)
     optimized: list[dict] = field(default_factory=list)
     optimized_path: Path | None = None
+    variable: list[dict] = field(default_factory=list)
+    variable_path: Path | None = None
 
 
 def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
@@ -104,6 +112,9 @@ def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
     rep.optimized_path = optimized.optimized_file(st)
     if rep.optimized_path is not None:
         rep.optimized = optimized.optimization_rows(rep.optimized_path)
+    rep.variable_path = variable.schedule_file(st)
+    if rep.variable_path is not None:
+        rep.variable = variable.variable_rows(rep.variable_path)
     return rep
 
 
@@ -140,6 +151,10 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
     if rep.optimized:
         write("optimization.csv", csv_bytes(rep.optimized, optimized.OPT_COLUMNS))
         write("optimization.png", png(optimized.optimization_figure(st, rep.optimized, log)))
+    if rep.variable:
+        write("variable_geometry.csv", csv_bytes(rep.variable, variable.columns(rep.variable)))
+        write("variable_geometry.png", png(variable.variable_figure(st, rep.variable,
+                                                                    rep.variable_path, log)))
     write("best_caging.png", png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", text_bytes(markdown(st, rep)))
@@ -382,6 +397,10 @@ def markdown(st: StoreData, rep: Report) -> str:
         L += ["", "## 6. Beyond the grid, `sweep optimize` (`optimization.png`, "
               "`optimization.csv`)", ""]
         L += optimized.section(rep.optimized, rep.optimized_path)
+    if rep.variable:
+        L += ["", "## 7. Variable geometry in the grasp, `sweep schedule` "
+              "(`variable_geometry.png`, `variable_geometry.csv`)", ""]
+        L += variable.section(rep.variable, rep.variable_path)
     L += ["", "## Reading", ""] + reading(st, rep)
     L += ["", "## Compared with the paper", ""] + comparison(st, rep)
     L.append("")

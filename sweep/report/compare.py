@@ -17,6 +17,9 @@ designs, parts and grid (`check_comparable` refuses others) and writes into `out
 - when a store has been optimised (`sweep optimize`: its results file beside it):
   `optimization_S.png`, `optimization_S.csv` for that scene S (1 or 2): per part G versus x*,
   the verdict and the box-limited constraints, the two grippers on x*'s map;
+- when a store has its schedules (`sweep schedule`: its results file beside it):
+  `variable_geometry_S.png`, `variable_geometry_S.csv` for that scene S: per part the best
+  fixed setting against the best schedule "draw in, then hold" (MODEL 12);
 - `report.md`: every table, the rules, both scenes' settings, a templated reading and which
   scene a designer should trust for hardware;
 - `report.json`: what the report was made from (a rerun on the same stores is a no-op).
@@ -33,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from . import caging, friction, manipulation, optimized, tip, usage
+from . import caging, friction, manipulation, optimized, tip, usage, variable
 from .caging import best_caging_rows
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, Comparison, StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
@@ -49,7 +52,8 @@ FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs
          "scenario_a_candidates.csv", "parameter_usage.png", "parameter_usage.csv",
          "friction.png", "friction.csv", "friction_candidates.csv", "caging_modulation.csv",
          "optimization_1.png", "optimization_1.csv", "optimization_2.png", "optimization_2.csv",
-         "report.md", MARKER)
+         "variable_geometry_1.png", "variable_geometry_1.csv", "variable_geometry_2.png",
+         "variable_geometry_2.csv", "report.md", MARKER)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -221,6 +225,9 @@ def make_tables(st1: StoreData, st2: StoreData, top_k: int | None,
         path = optimized.optimized_file(st)
         if path is not None:
             rep.optimized.append((tag, path, optimized.optimization_rows(path)))
+        path = variable.schedule_file(st)
+        if path is not None:
+            rep.variable.append((tag, path, variable.variable_rows(path)))
     return rep
 
 
@@ -234,6 +241,7 @@ def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> di
                 config_hash=[one["config_hash"], two["config_hash"]],
                 store_created_utc=[one["store_created_utc"], two["store_created_utc"]],
                 store_optimized_utc=[one["store_optimized_utc"], two["store_optimized_utc"]],
+                store_schedule_utc=[one["store_schedule_utc"], two["store_schedule_utc"]],
                 top_k=top_k, manipulation=st1.manipulation, report_version=__version__)
 
 
@@ -270,6 +278,11 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write(f"optimization_{tag}.csv", csv_bytes(rows, optimized.OPT_COLUMNS))
         write(f"optimization_{tag}.png", png(optimized.optimization_figure(
             st, rows, lambda m, tag=tag: log(f"scene {tag}: {m}"))))
+    for tag, path, rows in rep.variable:
+        st = st1 if tag == "1" else st2
+        write(f"variable_geometry_{tag}.csv", csv_bytes(rows, variable.columns(rows)))
+        write(f"variable_geometry_{tag}.png", png(variable.variable_figure(
+            st, rows, path, lambda m, tag=tag: log(f"scene {tag}: {m}"))))
     write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
     write("best_designs.png", best_png.result())
     write("report.md", markdown(st1, st2, rep).encode())
@@ -482,6 +495,12 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
         L += ["", f"## 6. Beyond the grid, `sweep optimize`, scene {tag} ({scene_name(st)}: "
               f"`optimization_{tag}.png`, `optimization_{tag}.csv`)", ""]
         L += optimized.section(rows, path)
+    for tag, path, rows in rep.variable:
+        st = st1 if tag == "1" else st2
+        L += ["", f"## 7. Variable geometry in the grasp, `sweep schedule`, scene {tag} "
+              f"({scene_name(st)}: `variable_geometry_{tag}.png`, "
+              f"`variable_geometry_{tag}.csv`)", ""]
+        L += variable.section(rows, path)
     L += ["", "## Reading", ""] + reading(st1, st2, rep)
     L.append("")
     return "\n".join(L)

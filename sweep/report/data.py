@@ -16,6 +16,7 @@ import numpy as np
 from .. import __version__
 from ..files import write_bytes_atomic
 from ..storage.optimized import optimization_created
+from ..storage.schedule import schedule_created
 from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
 from ..storage.h5 import StoreError
 
@@ -262,7 +263,8 @@ def identity(st: StoreData, top_k: int | None) -> dict:
     return dict(store=str(st.path.resolve()), config_hash=a.get("config_hash"),
                 store_created_utc=a.get("created_utc"),
                 store_refined_utc=a.get("refine_created_utc"),
-                store_optimized_utc=optimization_created(st.path), top_k=top_k,
+                store_optimized_utc=optimization_created(st.path),
+                store_schedule_utc=schedule_created(st.path), top_k=top_k,
                 manipulation=st.manipulation, report_version=__version__)
 
 
@@ -374,4 +376,6 @@ class Comparison:
     modulation: list[dict] = field(default_factory=list)     # both side by side
     #: per scene whose store has been optimised: (scene tag, results file, its rows)
     optimized: list[tuple] = field(default_factory=list)
+    #: per scene whose store has its schedules (`sweep schedule`): (tag, results file, rows)
+    variable: list[tuple] = field(default_factory=list)
     files: list[str] = field(default_factory=list)

@@ -528,16 +528,21 @@ def draw_map(m) -> Figure:
 
 def draw_map_panel(ax, m, title: str | None = None, colorbar_label: str | None =
                    "energy V (unitless)", fontsize: float = 7.0, label: str | None = None,
-                   others: tuple = ()):
+                   others: tuple = (), at: int | None = None):
     """Draw map `m` into the given Axes as one panel of a larger figure: energy colour with its
     own colour bar, equilibrium hatching, caged outline and the gripper to scale at the
     representative pose (no trajectories). `others`: (map, label) pairs of other designs for
     the same part whose grippers are drawn over it (dashed, `OTHER_GRIPPER_COLOUR`) with the
     part where m's gripper holds it (their own representative pose where that is off their
     grid or infeasible for them); with them (or `label`), a legend names each gripper by its
-    label, and the lines carry the label as their gid (`LABEL:palm`, `LABEL:finger`). Returns
-    the energy mesh."""
+    label, and the lines carry the label as their gid (`LABEL:palm`, `LABEL:finger`). `at`: the
+    flat index of the grid point to draw the gripper at instead. Returns the energy mesh."""
     v = _map_view(m)
+    if at is not None:
+        v["pose"], v["why"] = gripper_pose(m, int(at)), "the part here"
+        bx0, bx1, by0, by1 = v["pose"]["box"]
+        xlo, xhi, ylo, yhi = v["limits"]
+        v["limits"] = (min(xlo, bx0), max(xhi, bx1), min(ylo, by0), max(yhi, by1))
     mesh, _ = _draw_layers(ax, m, v, trajectories=False, gid=label)
     handles = []
     if label is not None and v["pose"] is not None:
