@@ -142,11 +142,16 @@ SUMMARY = (
           "caging metric Lambda_j: sum of the end point's caging score over the "
           "grid points whose trajectory ends caged (MODEL 8); grows as 1/h^2", "1", "caging"),
     Field("caging_area", "float64", (),
-          "resolution-independent caging metric Lambda_j * h^2", "length^2 (model units)",
-          "caging"),
+          "resolution-independent caging metric: the caging score of the trajectory's end "
+          "integrated over the starts, Lambda_j * h^2 with the palm row's starts at half a "
+          "cell (model-notes D36)", "length^2 (model units)", "caging"),
     Field("n_caged", "int32", (), "grid points whose trajectory ends caged", _COUNT, "caging"),
     Field("n_tip_prehension", "int32", (),
           "grid points whose trajectory ends in tip prehension", _COUNT, "caging"),
+    Field("tip_prehension_area", "float64", (),
+          "area of the starts whose trajectory ends in tip prehension: n_tip_prehension * h^2 "
+          "with the palm row's starts at half a cell (model-notes D36)",
+          "length^2 (model units)", "caging"),
     Field("n_ejection", "int32", (), "grid points whose trajectory ends in ejection", _COUNT,
           "caging"),
     Field("n_stalled", "int32", (), "grid points whose trajectory stalls before a stable "

@@ -151,7 +151,7 @@ def test_x_to_x_is_the_fixed_maps_caging_area_bit_for_bit(effects):
     _, ends, (caging, tip) = values_of(maps, part, h)
     for k, m in enumerate(maps):
         assert caging[k, k] == m.attrs["caging_area"]            # ==, not approx
-        assert tip[k, k] == m.attrs["n_tip_prehension"] * h * h
+        assert tip[k, k] == m.attrs["tip_prehension_area"]
         assert chained_areas([ends[k]], h) == (caging[k, k], tip[k, k])
     assert caging.max() >= caging.diagonal().max()
 
@@ -503,8 +503,7 @@ def test_the_stores_identities(small_store, scheduled):
             r1, r2, w = (float(ds[k][s]) for k in ("setting_r1", "setting_r2", "setting_w"))
             design = part.sel(l1=l1, l2=l2, r1=r1, r2=r2, w=w)
             assert float(ds.schedule_area[c, 0, 0, s, s]) == float(design.caging_area)
-            assert float(ds.schedule_area[c, 1, 0, s, s]) == \
-                int(design.n_tip_prehension) * h0 * h0
+            assert float(ds.schedule_area[c, 1, 0, s, s]) == float(design.tip_prehension_area)
             n_checked += 1
         for o in range(2):
             k = int(ds.finest_level[c])

@@ -100,6 +100,15 @@ class Ends:
     state: np.ndarray       # int8 (size,)
     end: np.ndarray         # int64 (size,)
     score: np.ndarray       # float64 (size,)
+    palm: int = 0           # the lattice points of the palm row (its first): half a cell each
+
+    @property
+    def start_weight(self) -> np.ndarray:
+        """Per start, the area it stands for in cells: 1/2 on the palm row, else 1 (the
+        kernels' trapezoid across the palm line, model-notes D36)."""
+        w = np.ones(self.state.size)
+        w[:self.palm] = 0.5
+        return w
 
     @property
     def caged_value(self) -> np.ndarray:
@@ -128,7 +137,7 @@ def on_lattice(m, lat: Lattice) -> Ends:
     cols = lat.columns(m.x)
     where = (np.arange(ny)[:, None] * lat.nx + cols[None, :]).ravel()   # map flat -> lattice
     out = Ends(np.full(lat.size, END_NONE, dtype=np.int8), np.full(lat.size, -1, dtype=np.int64),
-               np.zeros(lat.size))
+               np.zeros(lat.size), lat.nx)
     out.state[where] = state.ravel()
     flat = index.ravel()
     out.end[where] = np.where(flat >= 0, where[np.where(flat >= 0, flat, 0)], -1)
@@ -160,20 +169,28 @@ def chained(seq: list) -> tuple[np.ndarray, np.ndarray]:
 
 def chained_areas(seq: list, h: float) -> tuple[float, float]:
     """(caging area, tip-prehension area) of the schedule through the settings `seq`
-    (`chained`), summed start by start."""
+    (`chained`), summed start by start as the kernels sum a map's (`fixed_lambda`)."""
     state, end = chained(seq)
-    at = np.where(end >= 0, end, 0)
-    lam = np.where(state == END_CAGED, seq[-1].score[at], 0.0)
-    return (area(float(np.cumsum(lam)[-1]) if lam.size else 0.0, h),
-            area(float(np.count_nonzero(state == END_TIP_PREHENSION)), h))
+    done = Ends(state, end, seq[-1].score, seq[0].palm)
+    return area(fixed_lambda(done), h), area(fixed_tip(done), h)
 
 
 def fixed_lambda(e: Ends) -> float:
-    """Lambda of the fixed setting, summed as the kernels sum it (one start after another in
-    flat order: np.cumsum adds sequentially), so its caging area is the map's bit for bit."""
+    """Lambda of the fixed setting with the palm row's starts at half a cell, summed as the
+    kernels sum it (one start after another in flat order, np.cumsum adding sequentially, less
+    half the palm row's sum), so its caging area is the map's bit for bit."""
     at = np.where(e.end >= 0, e.end, 0)
     terms = np.where(e.state == END_CAGED, e.score[at], 0.0)
-    return float(np.cumsum(terms)[-1]) if terms.size else 0.0
+    if not terms.size:
+        return 0.0
+    palm = float(np.cumsum(terms[:e.palm])[-1]) if e.palm else 0.0
+    return float(np.cumsum(terms)[-1]) - 0.5 * palm
+
+
+def fixed_tip(e: Ends) -> float:
+    """The starts of the fixed setting that end in tip prehension, in cells (palm row: half)."""
+    tip = e.state == END_TIP_PREHENSION
+    return float(np.count_nonzero(tip)) - 0.5 * float(np.count_nonzero(tip[:e.palm]))
 
 
 def area(lam: float, h: float) -> float:
@@ -186,9 +203,10 @@ def area(lam: float, h: float) -> float:
 # ---------------------------------------------------------------------------------------------
 def _continuing_ends(e: Ends) -> tuple[np.ndarray, np.ndarray]:
     """The distinct points where a setting's trajectories end and go on after a switch, and how
-    many starts end at each."""
-    q = e.end[np.isin(e.state, CONTINUING)]
-    return np.unique(q, return_counts=True)
+    many starts end at each (in cells: a palm-row start counts half)."""
+    go = np.isin(e.state, CONTINUING)
+    q, at = np.unique(e.end[go], return_inverse=True)
+    return q, np.bincount(at.reshape(-1), weights=e.start_weight[go], minlength=q.size)
 
 
 def schedule_values(ends: list, h: float) -> tuple[np.ndarray, np.ndarray]:
@@ -213,10 +231,10 @@ def schedule_values(ends: list, h: float) -> tuple[np.ndarray, np.ndarray]:
     caged = np.ascontiguousarray(np.stack([e.caged_value for e in ends]).T)
     tip = np.ascontiguousarray(np.stack([e.tip for e in ends]).T.astype(np.float64))
     lam = np.asarray(reach @ caged)
-    count = np.rint(np.asarray(reach @ tip))   # whole numbers, exact below 2**53
+    count = np.asarray(reach @ tip)   # whole and half numbers: exact below 2**52
     for x, e in enumerate(ends):
         lam[x, x] = fixed_lambda(e)
-        count[x, x] = float(np.count_nonzero(e.state == END_TIP_PREHENSION))
+        count[x, x] = fixed_tip(e)
     return area(lam, h), area(count, h)
 
 
@@ -244,7 +262,7 @@ def best_of_three(ends: list, h: float, k: int = 1) -> dict:
             on = go[y][q]
             rows.append(np.full(int(on.sum()), y))
             cols.append(ends[y].end[q[on]])
-            data.append(c[on].astype(np.float64))
+            data.append(c[on])
         if not rows:
             continue
         w = csr_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),

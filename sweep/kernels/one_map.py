@@ -50,6 +50,7 @@ S_LAMBDA = SUMMARY_INDEX["Lambda"]
 S_CAGING_AREA = SUMMARY_INDEX["caging_area"]
 S_CAGED = SUMMARY_INDEX["n_caged"]
 S_TIP_PREHENSION = SUMMARY_INDEX["n_tip_prehension"]
+S_TIP_AREA = SUMMARY_INDEX["tip_prehension_area"]
 S_ENDS_IN_EJECTION = SUMMARY_INDEX["n_ejection"]
 S_STALLED = SUMMARY_INDEX["n_stalled"]
 S_REACHED = SUMMARY_INDEX["n_reached"]
@@ -253,10 +254,13 @@ def count_summary(outs, tip_overlap, score_sum, h, palm_row, out):
         out[n] = 0.0
     out[S_LAMBDA] = score_sum
     palm_sum = 0.0
+    palm_tip = 0.0
     if palm_row:
         for i in range(nx):
             if point_class[0, i] == REACHED and end_state[0, i] == END_CAGED:
                 palm_sum += outs.caging_score.flat[outs.end_index[0, i]]
+            elif point_class[0, i] == REACHED and end_state[0, i] == END_TIP_PREHENSION:
+                palm_tip += 1.0
     out[S_CAGING_AREA] = (score_sum - 0.5 * palm_sum) * h * h
     for j in range(ny):
         for i in range(nx):
@@ -289,6 +293,9 @@ def count_summary(outs, tip_overlap, score_sum, h, palm_row, out):
                 if crossed[j, i]:
                     out[S_CAGED_CROSSED] += 1
     out[S_POINTS] = ny * nx
+    # (no trajectories, no Lambda: NaN, as the caging area)
+    tip_area = (out[S_TIP_PREHENSION] - 0.5 * palm_tip) * h * h
+    out[S_TIP_AREA] = tip_area if score_sum == score_sum else np.nan
 
 
 # ---------------------------------------------------------------------------------------------

@@ -737,9 +737,9 @@ def store_settings(view) -> RefineSettings | None:
 
 def is_refined(view, scene: Scene, settings: RefineSettings) -> bool:
     """The store holds the refinement of this config under these settings (by a version that
-    repairs its own bound: `refine_widenings` present)."""
+    audits the designs left out: `refine_audit_designs` present)."""
     return (view.attrs.get("config_hash") == scene.config_hash and view.refine and
-            "refine_widenings" in view.refine and
+            "refine_audit_designs" in view.refine and
             view.attrs.get("refine_sweep_version") == __version__ and
             store_settings(view) == settings)
 
