@@ -266,8 +266,9 @@ REFINE_FIELDS = (
           "counted each)", "1", "refine"),
     Field("refine_bound_widened", "float64", PART_DIMS,
           "the part's contender bound after the re-admissions: every design with a screened "
-          "caging area of at least (1 - this) times the part's best contended (the floor "
-          "aside); refine_bound_used when no non-contender was re-admitted, and may exceed "
+          "caging area of at least (1 - this) times the part's best contended or was audited "
+          "(the floor aside; an audited design re-admitted by its own value does not move it); "
+          "refine_bound_used when no other non-contender was re-admitted, and may exceed "
           "refine_bound; NaN if not refined", "1", "refine"),
     Field("refine_audit_designs", "int32", PART_DIMS,
           "non-contending designs the part's audit recomputed at every level up to its finest "

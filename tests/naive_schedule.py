@@ -83,7 +83,8 @@ def grid_point(m, x: float, y: float):
 def schedule(maps: list, walk: bool = False) -> dict:
     """The schedule through `maps` in order (consecutive maps are different settings) from every
     start of the first map: {"lam", "n_caged", "n_tip", "final": {(x, y): (state, x_end,
-    y_end)}} (a start lost on the way: state END_NONE, no end)."""
+    y_end)}} (a start lost on the way: state END_NONE, no end). `lam` and `n_tip` count each
+    start of the first row, on the palm line, as half (model-notes D36: the trapezoid)."""
     first = maps[0]
     lam, n_caged, n_tip, final = 0.0, 0, 0, {}
     for j in range(len(first.y)):
@@ -108,9 +109,10 @@ def schedule(maps: list, walk: bool = False) -> dict:
                 final[key] = (END_NONE, math.nan, math.nan)
                 continue
             final[key] = (state, float(m.x[ei]), float(m.y[ej]))
+            weight = 0.5 if j == 0 else 1.0
             if state == END_CAGED:
-                lam += float(field(m, "caging_score")[ej][ei])
+                lam += weight * float(field(m, "caging_score")[ej][ei])
                 n_caged += 1
             elif state == END_TIP_PREHENSION:
-                n_tip += 1
+                n_tip += weight
     return dict(lam=lam, n_caged=n_caged, n_tip=n_tip, final=final)

@@ -319,9 +319,9 @@ def test_sweep_way_gives_the_reference_search_summaries():
              zip(rng.choice([0.04, 0.12, 0.2], 5), rng.choice([0.02, 0.1, 0.18], 5),
                  rng.choice([0.1, 0.4, 1.0], 5))] + [(1.2, 0.8, 0.08, 0.1, 0.8, 0.4)]
     cells = np.array(cells)
-    # grid8: the map pipeline below runs without the effect (the reference resolved the
-    # collisions), so slides off the grid, which would need it, are kept out
-    grid8 = Accuracy(trajectory="grid8")
+    # grid8 without step checks: the map pipeline below runs without the effect (the reference
+    # resolved the collisions), so evaluations off the grid, which would need it, are kept out
+    grid8 = Accuracy(trajectory="grid8", step_resolution=0.0)
     out = summarize_cells(cells, widths, Command(), h, Limits(), grid8,
                           Effects(finger_collision=True))
     for c, cell in enumerate(cells):

@@ -87,7 +87,20 @@ def parts(ds):
 # Derived variables: recomputed from their sources
 # ---------------------------------------------------------------------------------------------
 def caging_area(ds):
-    close(ds["caging_area"], ds["Lambda"] * h2(ds), what="caging_area = Lambda h^2")
+    """The trapezoid across the palm line (model-notes D36): Lambda h^2 less half the palm
+    row's share, which is at most half of Lambda and at most half a cell per palm-row point."""
+    gap = (ds["Lambda"] * h2(ds) - ds["caging_area"]).values
+    assert np.all(gap >= -1e-12 * ds["Lambda"].values * h2(ds))
+    assert np.all(gap <= 0.5 * ds["Lambda"].values * h2(ds) * (1 + 1e-12))
+    palm_points = (ds["n_points"] / (ds["n_points"] ** 0)).values   # a bound: every point
+    assert np.all(gap <= 0.5 * palm_points * h2(ds))
+
+
+def tip_prehension_area(ds):
+    """n_tip_prehension h^2 less half a cell per palm-row start ending in tip prehension."""
+    full = (ds["n_tip_prehension"] * h2(ds)).values
+    got = ds["tip_prehension_area"].values
+    assert np.all((got <= full * (1 + 1e-12)) & (got >= 0.5 * full * (1 - 1e-12)))
 
 
 def manipulation_a_area(ds):
@@ -131,9 +144,13 @@ def refine_n_contenders(ds):
     keys, per_design = parts(ds)
     for ri, mi in keys:
         role = per_design("refine_role", ri, mi)
-        assert int(ds["refine_n_contenders"].isel(r=ri, mu=mi)) == int((role > 0).sum())
-        # a contender, and only a contender, was recomputed
-        assert np.array_equal(role > 0, per_design("refined_level", ri, mi) > 0)
+        roles = ds["refine_role"].attrs["flag_meanings"].split()
+        contender = np.isin(role, [roles.index(k) for k in ("eliminated", "near_tie", "best")])
+        assert int(ds["refine_n_contenders"].isel(r=ri, mu=mi)) == int(contender.sum())
+        # a contender or an audited design, and only those, was recomputed (model-notes D37)
+        audited = role == roles.index("audited")
+        assert int(ds["refine_audit_designs"].isel(r=ri, mu=mi)) == int(audited.sum())
+        assert np.array_equal(contender | audited, per_design("refined_level", ri, mi) > 0)
 
 
 def refine_n_readmitted(ds):
@@ -194,7 +211,8 @@ def refined_error(ds):
 
 
 def refine_bound_widened(ds):
-    """Every design whose screened value reaches the widened cut contended."""
+    """Every design whose screened value reaches the widened cut contended or was audited
+    (model-notes D37: an audited design comes back by its own value, not by the cut)."""
     keys, per_design = parts(ds)
     for ri, mi in keys:
         screened = per_design("caging_area", ri, mi)
@@ -207,7 +225,8 @@ def refine_bound_widened(ds):
 
 
 DERIVED = {f.__name__: f for f in (
-    caging_area, manipulation_a_area, manipulation_b_area, manipulation_b, manipulation_b_poses,
+    caging_area, tip_prehension_area, manipulation_a_area, manipulation_b_area, manipulation_b,
+    manipulation_b_poses,
     n_points, refine_finest_h, refine_n_contenders, refine_n_readmitted, refine_status,
     refine_margin, refined_error, refine_bound_widened)}
 
@@ -273,6 +292,19 @@ def _bound_used(ds):
     assert np.all(np.isnan(used) | ((used >= 0) & (used <= ds.attrs["refine_bound"] + 1e-12)))
 
 
+def _nonnegative_or_nan(ds):
+    v = ds["refine_audit_rise"].values
+    assert np.all(np.isnan(v) | (v >= 0))
+
+
+def _audit_h(ds):
+    """The audit recomputes at the part's finest spacing (model-notes D37)."""
+    got, finest = ds["refine_audit_h"].values, ds["refine_finest_h"].values
+    status = ds["refine_status"].values
+    refined = status != ds["refine_status"].attrs["flag_meanings"].split().index("not_refined")
+    assert np.array_equal(got[refined], finest[refined])
+
+
 PRIMARY = {
     "Lambda": _lambda, "n_caged": _trajectory_ends, "n_tip_prehension": _trajectory_ends,
     "n_ejection": _trajectory_ends, "n_stalled": _trajectory_ends,
@@ -292,6 +324,8 @@ PRIMARY = {
     "refined_caging_area": _refined, "refined_level": _refined, "refine_role": _refined,
     "refine_readmitted": refine_n_readmitted, "refine_widenings": refine_n_readmitted,
     "refine_bound_held": _bound_held, "refine_bound_used": _bound_used,
+    "refine_audit_designs": refine_n_contenders, "refine_audit_rise": _nonnegative_or_nan,
+    "refine_audit_h": _audit_h,
 }
 
 
@@ -352,7 +386,12 @@ def test_map_file_summary_attributes_are_its_fields_counted(tmp_path):
     classes = m["point_class"].attrs["flag_meanings"].split()
     ends = m["end_state"].attrs["flag_meanings"].split()
     reached = cls == classes.index("reached")
-    close(a["caging_area"], a["Lambda"] * h * h, what="caging_area = Lambda h^2")
+    tips = reached & (m["end_state"].values == ends.index("tip_prehension"))
+    assert m["y"].values[0] == pytest.approx(r)      # the first row lies on the palm line
+    close(a["tip_prehension_area"], (tips.sum() - 0.5 * tips[0].sum()) * h * h,
+          what="tip_prehension_area: the trapezoid across the palm line")
+    gap = a["Lambda"] * h * h - a["caging_area"]     # half the palm row's share (D36)
+    assert 0.0 <= gap <= 0.5 * cls.shape[1] * h * h
     assert a["n_points"] == cls.size
     for name in ("infeasible", "unreached", "eject", "vertex", "reached"):
         key = "n_vertex" if name == "vertex" else f"n_{name}"

@@ -11,8 +11,8 @@ from kernel_calls import solve as solve_finger
 from sweep.kernels.finger_statics import finger_energy
 from sweep.kernels.finger_geometry import distal_tangency
 from sweep.compute.maps import compute_map
-from sweep.model import (DISTAL_ONLY, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX, Accuracy,
-                         Command, Design, Grid, Limits, Part)
+from sweep.model import (DISTAL_ONLY, END_CAGED, END_TIP_PREHENSION, INFEASIBLE, PROXIMAL_ONLY,
+                         REACHED, TWO_PHALANX, Accuracy, Command, Design, Grid, Limits, Part)
 
 TH2MIN = math.radians(-5.0)
 TH2MAX = math.radians(90.0)
@@ -215,4 +215,13 @@ def test_counts_add_up(energy_map):
             == a["n_reached"])
     reached = energy_map.fields["point_class"] == REACHED
     assert a["n_equilibrium"] == int((energy_map.fields["equilibrium"] & reached).sum())
-    assert a["caging_area"] == pytest.approx(a["Lambda"] * 0.1 ** 2, rel=1e-12)
+    # the trapezoid across the palm line (model-notes D36): the first row, on y = r, counts half
+    f = energy_map.fields
+    ends = np.asarray(f["end_index"])[0]
+    caged = reached[0] & (np.asarray(f["end_state"])[0] == END_CAGED)
+    palm = float(np.asarray(f["caging_score"]).ravel()[ends[caged]].sum())
+    assert abs(energy_map.y[0] - energy_map.part.r) < 1e-12
+    assert a["caging_area"] == pytest.approx((a["Lambda"] - 0.5 * palm) * 0.1 ** 2, rel=1e-12)
+    tips = reached & (np.asarray(f["end_state"]) == END_TIP_PREHENSION)
+    assert a["tip_prehension_area"] == pytest.approx(
+        (tips.sum() - 0.5 * tips[0].sum()) * 0.1 ** 2, rel=1e-12)

@@ -96,10 +96,12 @@ def test_sample_is_stratified_and_seeded():
     screened[100:110] = np.linspace(6.5, 8.9, 10)     # >= 0.6 x 10: top stratum, 10 classes
     screened[110:113] = [3.5, 4.0, 5.0]               # [0.3, 0.6): 3 classes
     screened[113:160] = np.linspace(0.0, 2.9, 47)     # below 0.3
-    a = rf.audit_sample(left_out, screened, 10.0, seed=7)
-    b = rf.audit_sample(left_out, screened, 10.0, seed=7)
+    from sweep.runs import certificate as cert
+
+    a = cert.audit_sample(left_out, screened, 10.0, seed=7)
+    b = cert.audit_sample(left_out, screened, 10.0, seed=7)
     assert np.array_equal(a, b)
-    quotas = dict(rf.AUDIT_STRATA)
+    quotas = dict(cert.AUDIT_STRATA)
     assert np.sum((a >= 100) & (a < 110)) == quotas[0.6]
     assert set(range(110, 113)) <= set(a.tolist())
     assert np.sum(a >= 113) == quotas[0.0]
@@ -114,4 +116,6 @@ def test_sample_is_stratified_and_seeded():
     (0.3, 0.1, 0.4),
 ])
 def test_error_estimate_by_hand(change, before, want):
-    assert rf.error_estimate(change, before) == pytest.approx(want, rel=1e-12)
+    from sweep.runs import certificate as cert
+
+    assert cert.error_estimate(change, before) == pytest.approx(want, rel=1e-12)

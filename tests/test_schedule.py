@@ -10,6 +10,8 @@ never below the best fixed setting, mirror symmetry, and the store's own values.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from pathlib import Path
 from types import SimpleNamespace
@@ -53,10 +55,11 @@ def values_of(maps, part, h):
 # ---------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def grid8_maps():
-    """Maps whose trajectories the reference can walk from their fields: grid8, three palm
-    widths (three grid extents), two ratios, a part the maps cage and hold."""
+    """Maps whose trajectories the reference can walk from their fields: grid8 without step
+    checks (model-notes D36: the walk reads grid values only), three palm widths (three grid
+    extents), two ratios, a part the maps cage and hold."""
     part = Part(0.4, 0.4)
-    acc = Accuracy(trajectory="grid8", reconfig_step=0.05)
+    acc = Accuracy(trajectory="grid8", reconfig_step=0.05, step_resolution=0.0)
     return part, maps_of(1.2, 0.8, [(0.12, 0.06), (0.12, 0.14)], [0.0, 0.4, 0.8], part, 0.1,
                          acc)
 
@@ -226,6 +229,21 @@ def toy(x, end_state, end_index, score, h=1.0, r=0.0):
 C, T, E, S, N = END_CAGED, END_TIP_PREHENSION, END_EJECTION, END_STALLED, END_NONE
 
 
+def off_the_palm(e):
+    """A hand-made row's ends as if the row lay above the palm line (every start a whole cell;
+    the palm row's half cells are the trapezoid's, tested on real maps)."""
+    return dataclasses.replace(e, palm=0)
+
+
+def test_the_palm_rows_starts_count_half():
+    """model-notes D36: a one-row lattice lies on the palm line, so each start is half a cell:
+    X's two tip starts give 1.0, its caged start at 1 (score 0.5) 0.25."""
+    X = toy([-1, 0, 1], [T, T, C], [1, 1, 2], [0, 0, 0.5])
+    lat = lattice_of([X], 1.0, 0.0)
+    caging, tip = schedule_values([on_lattice(X, lat)], 1.0)
+    assert caging[0, 0] == 0.25 and tip[0, 0] == 1.0
+
+
 def test_a_synthetic_pair_with_a_known_answer():
     """One row of part positions; X covers x = -1, 0, 1 (a narrow palm), Y x = -2 .. 2.
     X: the start at -1 ends in tip prehension at 0; 0 is a tip point; 1 stalls at itself.
@@ -237,7 +255,7 @@ def test_a_synthetic_pair_with_a_known_answer():
     Y = toy([-2, -1, 0, 1, 2], [N, C, C, C, E], [-1, 1, 1, 3, 4], [0, 0.8, 0, 0.5, 0])
     lat = lattice_of([X, Y], 1.0, 0.0)
     assert (lat.n, lat.ny) == (2, 1)
-    ends = [on_lattice(m, lat) for m in (X, Y)]
+    ends = [off_the_palm(on_lattice(m, lat)) for m in (X, Y)]
     caging, tip = schedule_values(ends, 1.0)
     assert caging[0, 0] == 0.0 and tip[0, 0] == 2.0
     assert caging[1, 1] == pytest.approx(0.8 + 0.8 + 0.5) and tip[1, 1] == 0.0
@@ -253,7 +271,7 @@ def test_no_switch_is_no_switch():
     X = toy([-1, 0, 1], [S, C, C], [1, 2, 2], [0, 0, 0.5])
     Y = toy([-1, 0, 1], [C, C, C], [0, 1, 2], [0.25, 0.25, 0.25])
     lat = lattice_of([X, Y], 1.0, 0.0)
-    ends = [on_lattice(m, lat) for m in (X, Y)]
+    ends = [off_the_palm(on_lattice(m, lat)) for m in (X, Y)]
     caging, _ = schedule_values(ends, 1.0)
     assert caging[0, 0] == 1.0                      # the starts at 0 and 1, caged at 1
     assert chained_areas([ends[0], ends[0]], 1.0)[0] == 1.5     # what a self-switch would say
@@ -490,7 +508,6 @@ def test_the_stores_identities(small_store, scheduled):
     store = xr.open_dataset(small_store, engine="h5netcdf")
     ds = xr.open_dataset(scheduled, engine="h5netcdf")
     fixed, sched_k = KINDS.index("fixed"), KINDS.index("schedule")
-    h0 = float(ds.h[0])
     n_checked = 0
     for c in range(ds.case.size):
         l1, l2, r, mu = (float(ds[k][c]) for k in ("l1", "l2", "r", "mu"))

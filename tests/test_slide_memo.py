@@ -20,6 +20,7 @@ from hypothesis import strategies as st
 from naive import ReferenceGrid
 from strategies import paper_table_designs
 from sweep.compute.maps import compute_map, kernel_records
+from sweep.kernels import finger as fk
 from sweep.kernels.meeting_search import collide, collide_near, no_slide_context, slide_context
 from sweep.kernels.outcome import point_outcome, point_outcome_below
 from sweep.kernels.records import FingerState, Hand
@@ -31,7 +32,7 @@ from sweep.kernels.trajectories import (
     new_memo,
     outcome_at,
 )
-from sweep.model import (END_NONE, FREE, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX,
+from sweep.model import (END_NONE, FREE, INFEASIBLE, PROXIMAL_ONLY, REACHED, TWO_PHALANX, VERTEX,
                          Accuracy, Command, Design, Effects, Grid, Limits, Part)
 
 ALONE = no_slide_context()  # a position evaluated on its own (collide, not collide_near)
@@ -49,6 +50,12 @@ def bits(e):
     return np.float64(e).tobytes()
 
 
+#: kernels.finger's first-contact codes by closing stage (model-notes D36)
+KERNEL_STAGE = {int(PROXIMAL_ONLY): 0, int(TWO_PHALANX): 0, int(fk.PROXIMAL_THEN_TIP): 0,
+                int(fk.DISTAL_ON_LOWER_STOP): 1, int(VERTEX): 2, int(fk.JOINT_STRIKE): 2,
+                int(fk.TIP_ON_LOWER_STOP): 2}
+
+
 class KernelGridReference(ReferenceGrid):
     """D16's reference rules (tests/naive.py) on a kernel map's grid values; off the grid,
     `point.point_outcome` as it is (the slides before the shortcuts)."""
@@ -63,6 +70,13 @@ class KernelGridReference(ReferenceGrid):
         self.model = (finger, solver, blocks, hand)
         self.points, self.slides, self.slide_ends, self.end_point = {}, {}, {}, {}
         self.cascade_moves = [0, 0, 0]
+        res = solver.step_resolution
+        self.resolution = res if 0.0 < res < hand.h else None
+        self.first = np.asarray(f["first_event"])
+
+    def stages(self, jj, ii):
+        """D36's closing stages from the kernel map's own first events."""
+        return tuple(KERNEL_STAGE.get(int(self.first[side, jj, ii]), 3) for side in range(2))
 
     def point(self, jj, ii):
         f = self.fields

@@ -168,7 +168,10 @@ def test_continuous_map_is_consistent_and_matches_the_sweep_path():
     caged = f["end_state"] == END_CAGED
     lam = f["caging_score"].ravel()[f["end_index"][caged]].sum()
     assert a["Lambda"] == pytest.approx(lam)
-    assert math.isfinite(a["caging_area"]) and a["caging_area"] == pytest.approx(lam * 0.04)
+    # the trapezoid across the palm line (model-notes D36): the first row counts half
+    palm = f["caging_score"].ravel()[f["end_index"][0][caged[0]]].sum()
+    assert math.isfinite(a["caging_area"])
+    assert a["caging_area"] == pytest.approx((lam - 0.5 * palm) * 0.04)
     cell = (2.0, 1.6, 0.2, 0.14, 0.4, 0.4)
     rows = summarize_cells(np.array([cell]), np.array([0.8]), Command(), 0.2, Limits(), acc)
     from sweep.schema import SUMMARY_FIELDS

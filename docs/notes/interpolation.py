@@ -92,8 +92,15 @@ def interpolate_fields(corners: list, weights) -> dict:
     w_caged = np.sum(np.where(caged_c, wb, 0.0), axis=0)
     s_sum = np.sum(np.where(caged_c, wb * score, 0.0), axis=0)
     pred_score = np.where(caged, s_sum / np.where(w_caged > 0, w_caged, 1.0), 0.0)
-    return dict(energy=pred_energy, point_class=pred_class, equilibrium=equilibrium,
-                caging_score=pred_score)
+    out = dict(energy=pred_energy, point_class=pred_class, equilibrium=equilibrium,
+               caging_score=pred_score)
+    if all("first_event" in c for c in corners):   # where steps are checked (D36): by vote
+        first = np.stack([np.asarray(c["first_event"]) for c in corners])
+        fcodes = np.unique(first)
+        wf = w.reshape((-1,) + (1,) * (first.ndim - 1))
+        fvotes = np.stack([np.sum(np.where(first == c, wf, 0.0), axis=0) for c in fcodes])
+        out["first_event"] = fcodes[np.argmax(fvotes, axis=0)].astype(np.int8)
+    return out
 
 
 def caging_of_fields(fields: dict, x, y, h: float, design: Design, part: Part,
@@ -102,7 +109,9 @@ def caging_of_fields(fields: dict, x, y, h: float, design: Design, part: Part,
                      sliding: bool = False) -> tuple[float, np.ndarray, np.ndarray]:
     """(caging area, end_state, end_index) of the trajectories on `fields` (FIELDS on the grid
     x, y at spacing h): the pipeline's trajectories (module docstring). `design`, `part` and
-    the settings give the model the slides evaluate (with `sliding`)."""
+    the settings give the model the slides and the step checks evaluate (with `sliding`; the
+    steps are checked where the fields' `first_event`, when given, says they could cross a
+    wall: model-notes D36). The caging area is the trapezoid across the palm line, as a map's."""
     energy = np.ascontiguousarray(fields["energy"], dtype=np.float64)
     ny, nx = energy.shape
     score = np.ascontiguousarray(fields["caging_score"], dtype=np.float64)
@@ -114,11 +123,17 @@ def caging_of_fields(fields: dict, x, y, h: float, design: Design, part: Part,
         np.zeros((ny, nx), dtype=np.int8), np.full((ny, nx), -1, dtype=np.int64))
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     hand = hand_record(design.w, command, h, finger)
-    lam = trajectory_ends(outs, np.zeros((2, ny, nx), dtype=np.int8),
+    first = np.ascontiguousarray(fields["first_event"], dtype=np.int8) if "first_event" in fields \
+        else np.zeros((2, ny, nx), dtype=np.int8)
+    lam = trajectory_ends(outs, first,
                           np.ascontiguousarray(x, dtype=np.float64),
                           np.ascontiguousarray(y, dtype=np.float64), finger, solver, blocks,
                           hand, np.empty(ny * nx, dtype=np.int64), np.bool_(sliding))
-    return float(lam) * h * h, outs.end_state.copy(), outs.end_index.copy()
+    caged = (outs.point_class[0] == REACHED) & (outs.end_state[0] == END_CAGED)
+    palm = 0.0
+    for i in np.flatnonzero(caged):   # in order, as the kernels sum it
+        palm += float(score.ravel()[outs.end_index[0, i]])
+    return (float(lam) - 0.5 * palm) * h * h, outs.end_state.copy(), outs.end_index.copy()
 
 
 def ends_caged(end_state: np.ndarray, point_class: np.ndarray) -> np.ndarray:

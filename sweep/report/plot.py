@@ -33,7 +33,6 @@ from matplotlib.patches import Circle, FancyArrowPatch, Patch
 from ..compute.layout import hand_record, kernel_records
 from ..kernels.streamline import max_streamline_steps, streamline_walk
 from ..kernels.trajectories import (
-    downhill_neighbour,
     max_slide_points,
     new_memo,
     GOES_ON,
@@ -68,24 +67,6 @@ END_STYLE = {
 # ---------------------------------------------------------------------------------------------
 # Trajectories
 # ---------------------------------------------------------------------------------------------
-def trajectory_path(start: int, energy: np.ndarray, point_class: np.ndarray,
-                    stable: np.ndarray, h: float) -> list[int]:
-    """Flat indices of the downhill path from `start` (the kernels' rule, `downhill_neighbour`):
-    it stops at a stable point, at the first point outside P_j, or where it stalls. Only the
-    drawn paths are walked; where every path ends comes from the map's `end_index`."""
-    ny, nx = energy.shape
-    path = [start]
-    while len(path) <= energy.size:
-        j, i = divmod(path[-1], nx)
-        if point_class[j, i] != REACHED or stable[j, i]:
-            break
-        q = downhill_neighbour(energy, point_class, i, j, h)
-        if q < 0:
-            break
-        path.append(int(q))
-    return path
-
-
 def sliding_points(start: int, m, stable: np.ndarray,
                    sliding: bool = True) -> tuple[np.ndarray, int]:
     """World points (n, 2) of the trajectory from `start` (kernels/trajectories.py, `successor`:

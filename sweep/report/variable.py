@@ -23,7 +23,7 @@ from ..model import END_CAGED, REACHED, Design, Grid, Part
 from ..storage.schedule import (KINDS, OBJECTIVES, SOURCES, STATUSES, VERDICTS, read_schedules,
                                 schedule_path)
 from .data import StoreData, fmt, md_table
-from .plot import draw_map_panel, sliding_points, streamline_points, trajectory_path
+from .plot import draw_map_panel, sliding_points, streamline_points
 from .style import NOTE_UNITLESS, SCENE_COLOURS
 
 VARIABLE_COLUMNS = ("r", "mu", "l1", "l2", "chassis", "objective", "h", "fixed_R", "fixed_w",
@@ -184,16 +184,11 @@ def path_points(m, start: int) -> np.ndarray:
     point_class, equilibrium = np.asarray(f["point_class"]), np.asarray(f["equilibrium"], bool)
     stable = (point_class == REACHED) & equilibrium
     method = m.accuracy.trajectory
-    if method == "sliding":
-        return sliding_points(start, m, stable)[0]
-    energy = np.asarray(f["energy"], dtype=np.float64)
     if method == "continuous":
+        energy = np.asarray(f["energy"], dtype=np.float64)
         return streamline_points(start, energy, point_class, equilibrium,
                                  np.asarray(f["caging_score"]) > 0, m.x, m.y)
-    h = float(m.x[1] - m.x[0]) if m.x.size > 1 else float(m.grid.h)
-    path = trajectory_path(start, energy, point_class, stable, h)
-    nx = m.x.size
-    return np.column_stack([m.x[np.array(path) % nx], m.y[np.array(path) // nx]])
+    return sliding_points(start, m, stable, sliding=method == "sliding")[0]
 
 
 def switch_start(draw, hold) -> tuple | None:
