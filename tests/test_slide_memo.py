@@ -73,9 +73,22 @@ class KernelGridReference(ReferenceGrid):
         res = solver.step_resolution
         self.resolution = res if 0.0 < res < hand.h else None
         self.first = np.asarray(f["first_event"])
+        self.mode, self.t1, self.t2 = (np.asarray(f[k]) for k in ("finger_mode", "theta1",
+                                                                   "theta2"))
+        self.collision = bool(blocks.finger_collision.on)
+        self.theta2_max = finger.theta2_max
 
     def stages(self, jj, ii):
-        """D36's closing stages from the kernel map's own first events."""
+        """D36's closing stages from the kernel map's own first events; with finger_collision
+        a point where a finger rests on the other matches no other point (its steps are
+        sampled): a finger stopped short of its settled configuration, free or proximal-only."""
+        if self.collision:
+            for side in range(2):
+                mode, t1, t2 = (int(self.mode[side, jj, ii]), self.t1[side, jj, ii],
+                                self.t2[side, jj, ii])
+                if (mode == FREE and (t1 != math.pi or t2 != self.theta2_max)) or (
+                        mode == PROXIMAL_ONLY and t2 != self.theta2_max):
+                    return ("meeting", jj, ii)
         return tuple(KERNEL_STAGE.get(int(self.first[side, jj, ii]), 3) for side in range(2))
 
     def point(self, jj, ii):

@@ -438,7 +438,7 @@ def kernel_slide_stops(m):
     own step (trajectories.successor, called as trajectory_ends calls it, with the map's memo
     and collision context) from every point, and, where it slid, the last position the slide
     records: where the part rejoined the grid, left P_j or the window, or stopped."""
-    from sweep.compute.layout import hand_record, kernel_records
+    from sweep.compute.layout import finger_arrays_of, hand_record, kernel_records
     from sweep.kernels.trajectories import (
         GOES_ON,
         max_slide_points,
@@ -452,7 +452,7 @@ def kernel_slide_stops(m):
     energy = np.asarray(f["energy"], dtype=np.float64)
     point_class = np.asarray(f["point_class"])
     equilibrium = np.asarray(f["equilibrium"], dtype=bool)
-    first = np.asarray(f["first_event"])
+    fingers = finger_arrays_of(f)
     x, y = np.asarray(m.x, float), np.asarray(m.y, float)
     ny, nx = energy.shape
     h = m.grid.h
@@ -468,7 +468,7 @@ def kernel_slide_stops(m):
             if point_class[j, i] != naive.REACHED or equilibrium[j, i]:
                 continue
             memo = memo_for_slide(memo)
-            state, _, n = successor(energy, point_class, equilibrium, first, x, y, i, j, finger,
+            state, _, n = successor(energy, point_class, equilibrium, fingers, x, y, i, j, finger,
                                     solver, blocks, hand, True, path, memo, context)
             if n:
                 stops[(j, i)] = (kinds[int(state)], path[n - 1, 0], path[n - 1, 1])

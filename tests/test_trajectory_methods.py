@@ -7,7 +7,7 @@ import pytest
 
 import naive
 from sweep.compute.batch import cell_map_fields, summarize_cells
-from sweep.kernels.records import Hand, new_outcome_arrays
+from sweep.kernels.records import Hand, new_finger_arrays, new_outcome_arrays
 from sweep.kernels.trajectories import trajectory_ends
 from sweep.kernels.streamline import streamline_ends
 from sweep.compute.layout import kernel_records
@@ -56,8 +56,12 @@ def grid8_ends(outs, h):
                                             Limits(), Accuracy(trajectory="grid8"), Effects())
     ny, nx = outs.energy.shape
     xs, ys = np.arange(nx) * h, 0.4 + np.arange(ny) * h
-    first = np.zeros((2, ny, nx), dtype=np.int8)   # one closing stage: no step is sampled
-    return trajectory_ends(outs, first, xs, ys, finger, solver, blocks,
+    fingers = new_finger_arrays(2, ny, nx)     # one closing stage, no meeting: no step sampled
+    fingers.first_event[:] = 0
+    fingers.mode[:] = 0
+    fingers.t1[:] = np.pi
+    fingers.t2[:] = finger.theta2_max
+    return trajectory_ends(outs, fingers, xs, ys, finger, solver, blocks,
                            Hand(0.0, 1.0, 1.0, h, finger.mu_s, finger.mu_s), stack_for(outs),
                            False)
 

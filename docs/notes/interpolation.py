@@ -29,10 +29,10 @@ import itertools
 
 import numpy as np
 
-from sweep.kernels.records import OutcomeArrays
+from sweep.kernels.records import OutcomeArrays, new_finger_arrays
 from sweep.kernels.trajectories import trajectory_ends
-from sweep.model import END_CAGED, REACHED, Accuracy, Command, Design, Effects, Limits, Part
-from sweep.compute.layout import hand_record, kernel_records
+from sweep.model import END_CAGED, FREE, REACHED, Accuracy, Command, Design, Effects, Limits, Part
+from sweep.compute.layout import finger_arrays_of, hand_record, kernel_records
 
 #: The fields a prediction carries (what the trajectories read).
 FIELDS = ("energy", "point_class", "equilibrium", "caging_score")
@@ -123,9 +123,17 @@ def caging_of_fields(fields: dict, x, y, h: float, design: Design, part: Part,
         np.zeros((ny, nx), dtype=np.int8), np.full((ny, nx), -1, dtype=np.int64))
     finger, solver, blocks = kernel_records(design, part, limits, accuracy, effects)
     hand = hand_record(design.w, command, h, finger)
-    first = np.ascontiguousarray(fields["first_event"], dtype=np.int8) if "first_event" in fields \
-        else np.zeros((2, ny, nx), dtype=np.int8)
-    lam = trajectory_ends(outs, first,
+    if all(k in fields for k in ("finger_mode", "theta1", "theta2", "k1", "k2", "tip_overlap",
+                                 "first_event")):
+        fingers = finger_arrays_of(fields)   # where the steps are checked (D36)
+    else:                                    # predicted fields: one closing stage, no meeting
+        fingers = new_finger_arrays(2, ny, nx)
+        fingers.first_event[:] = np.asarray(fields["first_event"]) if "first_event" in fields \
+            else 0
+        fingers.mode[:] = FREE
+        fingers.t1[:] = np.pi
+        fingers.t2[:] = finger.theta2_max
+    lam = trajectory_ends(outs, fingers,
                           np.ascontiguousarray(x, dtype=np.float64),
                           np.ascontiguousarray(y, dtype=np.float64), finger, solver, blocks,
                           hand, np.empty(ny * nx, dtype=np.int64), np.bool_(sliding))

@@ -130,6 +130,17 @@ def side_finger_model(finger: FingerModel, mu: float) -> FingerModel:
     return finger._replace(mu_s=float(mu))
 
 
+def finger_arrays_of(fields: dict) -> FingerArrays:
+    """A map's per-finger fields (`map_fields`' names) as the kernels' FingerArrays (the
+    trajectories' steps read them: model-notes D36)."""
+    def f(name, dtype):
+        return np.ascontiguousarray(fields[name], dtype=dtype)
+
+    return FingerArrays(f("finger_mode", np.int8), f("theta1", np.float64),
+                        f("theta2", np.float64), f("k1", np.float64), f("k2", np.float64),
+                        f("tip_overlap", np.bool_), f("first_event", np.int8))
+
+
 def map_fields(fingers: FingerArrays, outs: OutcomeArrays,
                forces: ForceArrays | None, outputs: Outputs = Outputs()) -> dict[str, np.ndarray]:
     """Kernel arrays -> the named per-point fields of sweep.schema (those of the outputs on)."""

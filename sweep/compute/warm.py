@@ -53,7 +53,7 @@ def compile_maps() -> None:
     from ..kernels.records import Hand
     from ..kernels.streamline import max_streamline_steps, streamline_walk
     from .batch import cell_map_fields, manipulation_cells
-    from .layout import kernel_records
+    from .layout import finger_arrays_of, kernel_records
     from .maps import compute_map
 
     design, part, h = Design(1.2, 0.8, 0.12, 0.1, 0.8), Part(0.4, 0.4), 0.4
@@ -72,7 +72,7 @@ def compile_maps() -> None:
     ny, nx = energy.shape
     downhill_neighbour(energy, point_class, 0, 0, h)
     finger, solver, blocks = kernel_records(design, part, Limits(), Accuracy(), Effects())
-    successor(energy, point_class, equilibrium, np.asarray(m.fields["first_event"]), m.x, m.y,
+    successor(energy, point_class, equilibrium, finger_arrays_of(m.fields), m.x, m.y,
               0, 0, finger, solver, blocks, Hand(0.8, 1.0, 1.0, h, finger.mu_s, finger.mu_s),
               True, np.empty((max_slide_points(ny, nx), 2)), new_memo(0, False),
               no_slide_context())

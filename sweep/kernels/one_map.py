@@ -324,7 +324,7 @@ def map_from_fingers(xs, ys, finger, solver, hand, effects, fingers, outs, force
         outs.end_index[:, :] = -1
         score_sum = np.nan  # no trajectories: Lambda does not exist
     elif solver.trajectory == TRAJECTORY_GRID8 or solver.trajectory == TRAJECTORY_SLIDING:
-        score_sum = trajectory_ends(outs, fingers.first_event, xs, ys, finger, solver, effects,
+        score_sum = trajectory_ends(outs, fingers, xs, ys, finger, solver, effects,
                                     hand, stack, solver.trajectory == TRAJECTORY_SLIDING)
     else:
         score_sum = streamline_ends(outs, hand.h, stack, solver.streamline_step)

@@ -30,6 +30,7 @@ from ..model import (
 from .jit import entry, inner
 from .meeting_search import slide_context
 from .outcome import NO_CLASS, point_outcome_below
+from .meeting import rests_on_other_finger
 from .finger import DISTAL_ON_LOWER_STOP, JOINT_STRIKE, PROXIMAL_THEN_TIP, TIP_ON_LOWER_STOP
 
 
@@ -243,21 +244,31 @@ def closing_stage(first):
 
 
 @inner
-def same_stages(p, q, nx, first):
+def same_stages(p, q, nx, fingers, finger, collision_on):
     """Whether each finger made its first contact in the same stage of the closing sequence at
-    the flat grid points p and q (`first`: the map's FingerArrays.first_event)."""
+    the flat grid points p and q (`fingers`: the map's FingerArrays), and, with
+    finger_collision, neither point has a finger stopped on the other (a meeting is a wall of
+    its own: the stopped finger is less closed, its energy higher)."""
     jp = p // nx
     ip = p - jp * nx
     jq = q // nx
     iq = q - jq * nx
+    first = fingers.first_event
     for side in range(2):
         if closing_stage(first[side, jp, ip]) != closing_stage(first[side, jq, iq]):
+            return False
+        if collision_on and (
+                rests_on_other_finger(np.int64(fingers.mode[side, jp, ip]),
+                                      fingers.t1[side, jp, ip], fingers.t2[side, jp, ip], finger)
+                or rests_on_other_finger(np.int64(fingers.mode[side, jq, iq]),
+                                         fingers.t1[side, jq, iq], fingers.t2[side, jq, iq],
+                                         finger)):
             return False
     return True
 
 
 @inner
-def checked_neighbour(energy, point_class, first, xs, ys, i, j, h, resolution, finger, solver,
+def checked_neighbour(energy, point_class, fingers, xs, ys, i, j, h, resolution, finger, solver,
                       effects, hand, memo, context):
     """The grid step from (j, i) with step checks: the steepest strictly lower feasible
     neighbour (downhill_neighbour's rule) whose step is clear, trying the others in order of
@@ -290,7 +301,7 @@ def checked_neighbour(energy, point_class, first, xs, ys, i, j, h, resolution, f
             break
         tried |= 1 << best
         q = (j + NEIGHBOUR_DJ[best]) * nx + i + NEIGHBOUR_DI[best]
-        if same_stages(j * nx + i, q, nx, first):
+        if same_stages(j * nx + i, q, nx, fingers, finger, effects.finger_collision.on):
             return STEP_CLEAR, q
         kind, x, y = step_check(xs[i], ys[j], here, xs[q % nx], ys[q // nx], resolution,
                                 finger, solver, effects, hand, memo, context)
@@ -479,7 +490,7 @@ GOES_ON = END_NONE
 
 
 @entry
-def successor(energy, point_class, equilibrium, first, xs, ys, i, j, finger, solver, effects,
+def successor(energy, point_class, equilibrium, fingers, xs, ys, i, j, finger, solver, effects,
               hand, sliding, path, memo, context):
     """Where the trajectory goes from the REACHED, not stable grid point (j, i) (module
     docstring): (GOES_ON, the next grid point, points written to `path` by a slide), or (an
@@ -488,7 +499,7 @@ def successor(energy, point_class, equilibrium, first, xs, ys, i, j, finger, sol
     ny, nx = energy.shape
     h = hand.h
     if step_checks_on(solver, h):
-        kind, q = checked_neighbour(energy, point_class, first, xs, ys, i, j, h,
+        kind, q = checked_neighbour(energy, point_class, fingers, xs, ys, i, j, h,
                                     solver.step_resolution, finger, solver, effects, hand, memo,
                                     context)
         if kind == STEP_CLEAR:
@@ -518,7 +529,7 @@ def record(path, n, x, y):
 
 
 @entry
-def trajectory_ends(outs, first, xs, ys, finger, solver, effects, hand, stack, sliding):
+def trajectory_ends(outs, fingers, xs, ys, finger, solver, effects, hand, stack, sliding):
     """End state and end point (outs.end_state, outs.end_index) of the trajectory from every
     point of P_j (REACHED points): grid8, or with `sliding` the sliding
     method (module docstring). `first`: the map's FingerArrays.first_event (step checks).
@@ -538,7 +549,7 @@ def trajectory_ends(outs, first, xs, ys, finger, solver, effects, hand, stack, s
         # the trajectories run with one memo until a step needs a larger one; the memo is
         # replaced here, between calls, since replacing a record of arrays inside the loop cost
         # a reference-count pair per array at every point (docs/performance.md)
-        p0 = trajectories_from(p0, outs, end_state, end_index, first, xs, ys, finger, solver,
+        p0 = trajectories_from(p0, outs, end_state, end_index, fingers, xs, ys, finger, solver,
                                effects, hand, stack, sliding, memo)
         if p0 < size:
             memo = memo_for_slide(memo)
@@ -550,7 +561,7 @@ def trajectory_ends(outs, first, xs, ys, finger, solver, effects, hand, stack, s
 
 
 @inner
-def trajectories_from(p_start, outs, end_state, end_index, first, xs, ys, finger, solver,
+def trajectories_from(p_start, outs, end_state, end_index, fingers, xs, ys, finger, solver,
                       effects, hand, stack, sliding, memo):
     """trajectory_ends from flat point p_start on with this memo: fills end_state and end_index
     (flat views of outs') and returns the number of points, or the point whose
@@ -596,7 +607,7 @@ def trajectories_from(p_start, outs, end_state, end_index, first, xs, ys, finger
             if not memo_has_room(memo) and (
                     checks or (sliding and downhill_neighbour(energy, point_class, i, j, h) < 0)):
                 return p0
-            state, q, _ = successor(energy, point_class, equilibrium, first, xs, ys, i, j,
+            state, q, _ = successor(energy, point_class, equilibrium, fingers, xs, ys, i, j,
                                            finger, solver, effects, hand, sliding, no_path,
                                            memo, context)
             if state != GOES_ON:

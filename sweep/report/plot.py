@@ -30,7 +30,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch, Patch
 
-from ..compute.layout import hand_record, kernel_records
+from ..compute.layout import finger_arrays_of, hand_record, kernel_records
 from ..kernels.streamline import max_streamline_steps, streamline_walk
 from ..kernels.trajectories import (
     max_slide_points,
@@ -77,7 +77,7 @@ def sliding_points(start: int, m, stable: np.ndarray,
     energy = np.asarray(m.fields["energy"], dtype=np.float64)
     point_class = np.asarray(m.fields["point_class"])
     equilibrium = np.asarray(m.fields["equilibrium"], dtype=bool)
-    first = np.asarray(m.fields["first_event"])
+    fingers = finger_arrays_of(m.fields)
     x, y = np.asarray(m.x, float), np.asarray(m.y, float)
     ny, nx = energy.shape
     h = _grid_step(m)
@@ -91,7 +91,7 @@ def sliding_points(start: int, m, stable: np.ndarray,
         points.append((x[i], y[j]))
         if point_class[j, i] != REACHED or stable[j, i]:
             break
-        state, q, n = successor(energy, point_class, equilibrium, first, x, y, i, j, finger,
+        state, q, n = successor(energy, point_class, equilibrium, fingers, x, y, i, j, finger,
                                    solver, blocks, hand, sliding, buf, new_memo(0, False),
                                    no_slide_context())
         points.extend(map(tuple, buf[1:n]))
