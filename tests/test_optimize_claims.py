@@ -205,57 +205,6 @@ def test_one_gripper_maximises_the_worst_or_mean_relative_area(objective):
     assert got.designs_scored <= 300
 
 
-@pytest.fixture(scope="module")
-def small_store(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("claims") / "small.h5"
-    res = CliRunner().invoke(main, ["run", str(SMALL), "--out", str(out), "--threads", "1",
-                                    "--no-progress"])
-    assert res.exit_code == 0, res.output
-    return out
-
-
-def test_one_gripper_of_a_store_is_stored_and_printed_as_defined(small_store, tmp_path):
-    """`sweep optimize --objective worst` on both parts of configs/small.yaml: the group
-    `one_gripper` holds the design's caging area per part at h and h/2 (each equal to
-    `compute_map`'s on that design), each part's own optimum at h/2 (x*'s value at level 1 of
-    the per-part results), the loss 1 - area / own at h/2, the score min(area / own) at h (own:
-    x*'s value at h) and at h/2; the printed loss per part is that loss. Checked: the loss
-    written from the errors, the score at h/2 from the values at h, and each part's own optimum
-    at h instead of h/2 each fail here."""
-    from sweep.compute.maps import compute_map
-    from sweep.config.parse import load_scene
-    from sweep.model import Design, Grid, Part
-
-    out = tmp_path / "opt.h5"
-    res = CliRunner().invoke(main, [
-        "optimize", str(small_store), "--parts", "all", "--objective", "worst",
-        "--evaluations", "60", "--joint-evaluations", "10", "--levels", "1", "--starts", "1",
-        "--seeds", "2", "--threads", "1", "--no-progress", "--out", str(out)])
-    assert res.exit_code == 0, res.output
-    sc = load_scene(SMALL)
-    with h5py.File(out, "r") as f:
-        g = f["one_gripper"]
-        design = g["design"][...]
-        parts = list(zip(f["r"][...], f["mu"][...]))
-        own_h, own_half = f["x_star_area"][:, 0], f["x_star_area"][:, 1]
-        area, half = g["area"][...], g["area_half_h"][...]
-        for k, (r, mu) in enumerate(parts):
-            for hh, stored in ((sc.h, area[k]), (sc.h / 2, half[k])):
-                m = compute_map(Design(*design), Part(float(r), float(mu)), sc.commands[0],
-                                Grid(h=hh), sc.limits, sc.accuracy, sc.effects)
-                assert stored == m.attrs["caging_area"], (k, hh)
-        assert np.array_equal(g["own_optimum_half_h"][...], own_half)
-        assert g["loss"][...] == pytest.approx(1.0 - half / own_half, abs=1e-12)
-        assert g["error"][...] == pytest.approx(np.abs(half - area), abs=1e-12)
-        assert g.attrs["objective"] == "worst"
-        assert g.attrs["score"] == pytest.approx(np.min(area / own_h), abs=1e-12)
-        assert g.attrs["score_half_h"] == pytest.approx(np.min(half / own_half), abs=1e-12)
-        loss = g["loss"][...]
-    printed = next(ln for ln in res.output.splitlines() if "loss against each part" in ln)
-    for (r, mu), value in zip(parts, loss):
-        assert f"r={r:g} mu={mu:g} {value:.1%}" in printed
-
-
 # ---------------------------------------------------------------------------------------------
 # The memo
 # ---------------------------------------------------------------------------------------------
@@ -523,8 +472,59 @@ def test_g_is_the_refinements_best_and_the_seeds_follow_its_ranking():
 
 
 # ---------------------------------------------------------------------------------------------
-# The stated box, and a run restarted
+# On a store (configs/small.yaml): one gripper, the stated box, a run restarted
 # ---------------------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def small_store(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("claims") / "small.h5"
+    res = CliRunner().invoke(main, ["run", str(SMALL), "--out", str(out), "--threads", "1",
+                                    "--no-progress"])
+    assert res.exit_code == 0, res.output
+    return out
+
+
+def test_one_gripper_of_a_store_is_stored_and_printed_as_defined(small_store, tmp_path):
+    """`sweep optimize --objective worst` on both parts of configs/small.yaml: the group
+    `one_gripper` holds the design's caging area per part at h and h/2 (each equal to
+    `compute_map`'s on that design), each part's own optimum at h/2 (x*'s value at level 1 of
+    the per-part results), the loss 1 - area / own at h/2, the score min(area / own) at h (own:
+    x*'s value at h) and at h/2; the printed loss per part is that loss. Checked: the loss
+    written from the errors, the score at h/2 from the values at h, and each part's own optimum
+    at h instead of h/2 each fail here."""
+    from sweep.compute.maps import compute_map
+    from sweep.config.parse import load_scene
+    from sweep.model import Design, Grid, Part
+
+    out = tmp_path / "opt.h5"
+    res = CliRunner().invoke(main, [
+        "optimize", str(small_store), "--parts", "all", "--objective", "worst",
+        "--evaluations", "60", "--joint-evaluations", "10", "--levels", "1", "--starts", "1",
+        "--seeds", "2", "--threads", "1", "--no-progress", "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    sc = load_scene(SMALL)
+    with h5py.File(out, "r") as f:
+        g = f["one_gripper"]
+        design = g["design"][...]
+        parts = list(zip(f["r"][...], f["mu"][...]))
+        own_h, own_half = f["x_star_area"][:, 0], f["x_star_area"][:, 1]
+        area, half = g["area"][...], g["area_half_h"][...]
+        for k, (r, mu) in enumerate(parts):
+            for hh, stored in ((sc.h, area[k]), (sc.h / 2, half[k])):
+                m = compute_map(Design(*design), Part(float(r), float(mu)), sc.commands[0],
+                                Grid(h=hh), sc.limits, sc.accuracy, sc.effects)
+                assert stored == m.attrs["caging_area"], (k, hh)
+        assert np.array_equal(g["own_optimum_half_h"][...], own_half)
+        assert g["loss"][...] == pytest.approx(1.0 - half / own_half, abs=1e-12)
+        assert g["error"][...] == pytest.approx(np.abs(half - area), abs=1e-12)
+        assert g.attrs["objective"] == "worst"
+        assert g.attrs["score"] == pytest.approx(np.min(area / own_h), abs=1e-12)
+        assert g.attrs["score_half_h"] == pytest.approx(np.min(half / own_half), abs=1e-12)
+        loss = g["loss"][...]
+    printed = next(ln for ln in res.output.splitlines() if "loss against each part" in ln)
+    for (r, mu), value in zip(parts, loss):
+        assert f"r={r:g} mu={mu:g} {value:.1%}" in printed
+
+
 def test_a_stated_box_bounds_fixes_and_budgets_every_design(small_store, tmp_path):
     """`--bounds l1=1.2:2.4 --fix w=0.8 --length-budget 3.4` on configs/small.yaml: every map
     the search computed at h (but G's, the grid's best, which is compared wherever it lies), x*
