@@ -490,7 +490,8 @@ def test_one_gripper_of_a_store_is_stored_and_printed_as_defined(small_store, tm
     the per-part results), the loss 1 - area / own at h/2, the score min(area / own) at h (own:
     x*'s value at h) and at h/2; the printed loss per part is that loss. Checked: the loss
     written from the errors, the score at h/2 from the values at h, and each part's own optimum
-    at h instead of h/2 each fail here."""
+    at h instead of h/2 each fail here. The constraints the design sits on, each with its side
+    (from the box the file states): they were written as the side's first letter ('l1:u')."""
     from sweep.compute.maps import compute_map
     from sweep.config.parse import load_scene
     from sweep.model import Design, Grid, Part
@@ -520,9 +521,15 @@ def test_one_gripper_of_a_store_is_stored_and_printed_as_defined(small_store, tm
         assert g.attrs["score"] == pytest.approx(np.min(area / own_h), abs=1e-12)
         assert g.attrs["score_half_h"] == pytest.approx(np.min(half / own_half), abs=1e-12)
         loss = g["loss"][...]
+        lower, upper = f.attrs["box_lower"], f.attrs["box_upper"]
+        sides = [f"{k}:{'lower' if v <= lo + 5e-4 else 'upper'}"
+                 for k, v, lo, hi in zip(("l1", "l2", "r1", "r2", "w"), design, lower, upper)
+                 if v <= lo + 5e-4 or v >= hi - 5e-4]
+        assert g.attrs["constraints"] == (" ".join(sides) or "none")
     printed = next(ln for ln in res.output.splitlines() if "loss against each part" in ln)
     for (r, mu), value in zip(parts, loss):
         assert f"r={r:g} mu={mu:g} {value:.1%}" in printed
+    assert f"on constraints: {' '.join(sides) or 'none'}" in res.output
 
 
 def test_a_stated_box_bounds_fixes_and_budgets_every_design(small_store, tmp_path):

@@ -367,7 +367,7 @@ def optimise_joint(scores: MapScores, scene: Scene, box: Box, parts: list,
                       errors=np.abs(at_h1 - at_h), own_fine=own_h1, loss=loss,
                       designs_scored=len(seen), maps=len(used),
                       seconds=float(sum(scores.seconds[k] for k in used)),
-                      constraints={k: v[0] for k, v in box.active(x).items()})
+                      constraints=dict(box.active(x)))
 
 
 # ---------------------------------------------------------------------------------------------
