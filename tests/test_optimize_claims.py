@@ -601,3 +601,20 @@ def test_restart_discards_the_maps_of_an_interrupted_run(small_store, tmp_path, 
 def test_a_box_needs_a_bound_per_parameter():
     with pytest.raises(ValueError, match="per parameter"):
         Box((1.0, 1.0), (2.0, 2.0))
+
+
+@pytest.mark.parametrize("other", ["a store", "not HDF5"])
+def test_a_file_beside_the_store_that_is_no_results_file_adds_no_section(small_store, tmp_path,
+                                                                          other):
+    """The report's section 6 is there when the store has been optimised: a file under the
+    results file's name that is not one (another store, a file that is not HDF5) is none, as
+    the report's identity already said. Checked: the report read any such file as results
+    (a KeyError traceback for a store, 'failed: OSError' for the other)."""
+    store = tmp_path / "small.h5"
+    store.write_bytes(small_store.read_bytes())
+    beside = tmp_path / "small.optimize.h5"
+    beside.write_bytes(small_store.read_bytes() if other == "a store" else b"not HDF5")
+    res = CliRunner().invoke(main, ["report", str(store), "--out", str(tmp_path / "report")])
+    assert res.exit_code == 0, res.output
+    assert "Beyond the grid" not in (tmp_path / "report" / "report.md").read_text()
+    assert not (tmp_path / "report" / "optimization.csv").exists()
