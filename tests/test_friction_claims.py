@@ -222,3 +222,15 @@ def test_the_reading_where_variable_geometry_gains_nowhere():
     assert "Variable geometry (B) gains over one gripper (A) on 0 parts." in text
     assert "recovers" not in text and "alternative" not in text
     assert "- Where B does not gain over A (3 parts), switching friction adds on 0." in text
+
+
+def test_the_reading_where_variable_geometry_gains_on_every_part():
+    """Only the six parts where B gains: the share and the kinds as before, and no sentence on
+    parts where B does not gain."""
+    st = fake_store()
+    rep = report_of(st)
+    rep.friction = [r for r in rep.friction if r["verdict"] in friction.WHERE_B_GAINS]
+    text = "\n".join(friction.reading(st, rep))
+    assert ("gains over one gripper (A) on 6 parts; switching friction recovers 38.8889 % of "
+            "that gain") in text
+    assert "Where B does not gain" not in text

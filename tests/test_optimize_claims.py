@@ -34,7 +34,7 @@ from sweep.runs import evaluations
 from sweep.runs.evaluations import MapScores, class_key
 from sweep.runs.optimize import (GridBest, OptimizeSettings, constraint_changes, default_box,
                                  optimise_joint, optimise_part)
-from sweep.runs.search import Box, pattern_search
+from sweep.runs.search import Box, BudgetSpent, pattern_search
 from sweep.schema import SUMMARY_FIELDS, SUMMARY_INDEX
 from sweep.storage.optimized import (CONSTRAINTS, OneGripper, OptimizedPart,
                                      write_optimization)
@@ -167,6 +167,18 @@ def joint_parts():
     return out
 
 
+def test_one_gripper_of_parts_that_cage_nowhere_scores_zero():
+    """Where no part's own optimum cages, no part enters the objective: the one gripper's score
+    is 0 at h and h/2 and every loss is NaN (there is nothing to lose). Checked: the objective
+    of an empty set taken as min() (a ValueError) fails here."""
+    sc = scene(h=H_JOINT, l2=[1.0], r1=[0.1], r2=[0.1], w=[0.0])
+    parts = [p for p in joint_parts() if PEAKS[(p.r, p.mu)][1] == 0.0]
+    got = optimise_joint(Scores(joint_area), sc, default_box(sc), parts * 2,
+                         OptimizeSettings(objective="worst", joint_evaluations=20))
+    assert (got.score, got.score_fine) == (0.0, 0.0)
+    assert np.isnan(got.loss).all()
+
+
 @pytest.mark.parametrize("objective", ["worst", "mean"])
 def test_one_gripper_maximises_the_worst_or_mean_relative_area(objective):
     """The one-gripper score of a design (docs/optimisation.md) is the worst (or mean), over the
@@ -241,6 +253,12 @@ def test_the_memo_computes_each_map_once_even_when_it_cages_nothing(monkeypatch,
     assert len(calls) == 3 and again.computed == 0
     (tmp_path / evaluations.JOURNAL).write_bytes(b"not a journal")   # unreadable: computed again
     assert MapScores(scores.scene, tmp_path).area(d, 0.4, 0.4, 0.2) == 0.0
+    assert len(calls) == 4
+    # a journal holding one class twice: the first row is the map, the second is not read
+    np.savez(tmp_path / evaluations.JOURNAL, rows=np.array([[0.4, 0.4, 0.2, *d, 0.0, 0.1],
+                                                            [0.4, 0.4, 0.2, *twin, 5.0, 0.1]]))
+    loaded = MapScores(scores.scene, tmp_path)
+    assert loaded.area(twin, 0.4, 0.4, 0.2) == 0.0 and len(loaded.table()) == 1
     assert len(calls) == 4
 
 
@@ -618,3 +636,84 @@ def test_a_file_beside_the_store_that_is_no_results_file_adds_no_section(small_s
     assert res.exit_code == 0, res.output
     assert "Beyond the grid" not in (tmp_path / "report" / "report.md").read_text()
     assert not (tmp_path / "report" / "optimization.csv").exists()
+
+
+# ---------------------------------------------------------------------------------------------
+# The box's rounding, the population, starts beyond the budget, the identity
+# ---------------------------------------------------------------------------------------------
+def test_a_design_on_the_budget_is_rounded_down_to_stay_within_it():
+    """Box.feasible: l1 + l2 brought onto the budget 2.5004 (both shortened by half the
+    excess: 1.2507 + 1.2497) and rounded to the resolution 0.001 would be 1.251 + 1.250 =
+    2.501, over the budget: l2 is rounded down instead (1.249), worked by hand. Checked:
+    rounding to nearest only (over the budget) fails here."""
+    box = Box((1.0, 1.0, 0.1, 0.1, 0.0), (2.0, 2.0, 0.2, 0.2, 1.0), {}, 2.5004)
+    d = box.feasible([1.2512, 1.2502, 0.15, 0.15, 0.5])
+    assert d[:2].tolist() == [1.251, 1.249]
+    assert d[0] + d[1] <= 2.5004
+
+
+def test_seeds_fill_the_population_before_any_random_member():
+    """The evolution's first population: the seeds made feasible, in order, as many as fit;
+    a Latin hypercube only for the rest. Six seeds for a population of five: the first five,
+    clipped into the box, no random member."""
+    from sweep.runs.search import initial_population
+
+    box = Box((1.0, 1.0, 0.1, 0.1, 0.0), (2.0, 2.0, 0.2, 0.2, 1.0), {"w": 0.5})
+    seeds = np.array([[1.0 + 0.1 * k, 2.5, 0.15, 0.05, 0.9] for k in range(6)])
+    pop = initial_population(box, seeds, 5, 0)
+    assert pop.tolist() == [[1.0 + 0.1 * k, 2.0, 0.15, 0.1] for k in range(5)]
+
+
+def test_a_start_beyond_the_budget_is_no_end_and_no_part_of_the_spread():
+    """Multi-start with six seeds, a population of five and a budget of five designs: the
+    evolution scores the first five seeds and is stopped by the budget; the compass searches
+    from its best and from the seeds end where they start (no poll is left), and the sixth
+    seed, never scored, is no end at all (value -inf): the spread of the ends is over the
+    others. Checked: a start beyond the budget given the value of its seed's neighbour, or
+    counted in the spread, fails here."""
+    from sweep.runs.search import multi_start
+
+    box = Box((1.0, 1.0, 0.1, 0.1, 0.0), (2.0, 2.0, 0.2, 0.2, 1.0))
+    seen: set = set()
+
+    def score(d):
+        k = tuple(np.round(d, 9))
+        if k not in seen:
+            if len(seen) >= 5:
+                raise BudgetSpent()
+            seen.add(k)
+        return float(d[0])
+
+    seeds = np.array([[1.0 + 0.1 * k, 1.5, 0.15, 0.15, 0.5] for k in range(6)])
+    trace, ends = multi_start(score, box, seeds, 0, 5, lambda: False, 7, np.full(5, 0.1),
+                              np.full(5, 0.01))
+    assert trace.best.tolist() == seeds[4].tolist() and trace.value == 1.4
+    assert [e.value for e in ends] == [1.4, 1.0, 1.1, 1.2, 1.3, -math.inf]
+    assert ends[-1].best.tolist() == seeds[5].tolist()
+    part = optimized_part({}, 0.25, start_values=np.array([e.value for e in ends]))
+    assert part.spread == pytest.approx(0.4)
+
+
+def test_the_identity_changes_with_the_stores_refined_values():
+    """A results file is made again when what decides it changes: the store's screened and
+    refined caging areas (a store refined after the run), the box, the parts, the settings.
+    Checked: an identity blind to the refined values (a rerun after `sweep refine` kept the old
+    results) fails here."""
+    from sweep.runs.optimize import identity
+
+    sc = scene()
+    screened = np.arange(8.0).reshape(8, 1)
+
+    def ident(refined, box=BOX, parts=((0.4, 0.4),), s=OptimizeSettings()):
+        view = SimpleNamespace(variables={"caging_area": screened},
+                               refine={} if refined is None else
+                               {"refined_caging_area": np.asarray(refined, float)})
+        return identity(view, sc, box, list(parts), s)
+
+    base = ident([1.0, 2.0])
+    assert ident([1.0, 2.0]) == base
+    assert ident([1.0, 2.5])["store_sha256"] != base["store_sha256"]
+    assert ident(None)["store_sha256"] != base["store_sha256"]
+    assert ident([1.0, 2.0], box=Box(BOX.lower, BOX.upper)) != base
+    assert ident([1.0, 2.0], parts=((0.8, 0.4),)) != base
+    assert ident([1.0, 2.0], s=OptimizeSettings(seed=1)) != base
