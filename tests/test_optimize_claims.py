@@ -717,3 +717,28 @@ def test_the_identity_changes_with_the_stores_refined_values():
     assert ident([1.0, 2.0], box=Box(BOX.lower, BOX.upper)) != base
     assert ident([1.0, 2.0], parts=((0.8, 0.4),)) != base
     assert ident([1.0, 2.0], s=OptimizeSettings(seed=1)) != base
+
+
+@pytest.mark.parametrize("target", ["another store", "the store itself", "not HDF5"])
+def test_out_naming_a_file_that_is_no_results_file_is_refused(small_store, tmp_path, target):
+    """`--out` names where the results go; a file already there is replaced only if it is
+    results of `sweep optimize` (another identity: made again). Another results store, the
+    store being optimised or any other file is refused before anything is computed: one line
+    naming --out, exit code 2, the file unchanged. Checked: `sweep optimize STORE --out
+    OTHER.h5` replaced a whole sweep's store with its results."""
+    store = tmp_path / "small.h5"
+    store.write_bytes(small_store.read_bytes())
+    out = {"another store": tmp_path / "other.h5", "the store itself": store,
+           "not HDF5": tmp_path / "notes.h5"}[target]
+    if target == "another store":
+        out.write_bytes(small_store.read_bytes())
+    elif target == "not HDF5":
+        out.write_bytes(b"my notes")
+    before = out.read_bytes()
+    res = CliRunner().invoke(main, ["optimize", str(store), "--part", "0.4,0.4",
+                                    "--evaluations", "20", "--no-progress", "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1 and "--out" in lines[0] and "left alone" in lines[0], res.output
+    assert out.read_bytes() == before
+    assert not (tmp_path / (out.name + ".work")).exists()
