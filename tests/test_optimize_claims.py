@@ -742,3 +742,27 @@ def test_out_naming_a_file_that_is_no_results_file_is_refused(small_store, tmp_p
     assert len(lines) == 1 and "--out" in lines[0] and "left alone" in lines[0], res.output
     assert out.read_bytes() == before
     assert not (tmp_path / (out.name + ".work")).exists()
+
+
+@pytest.mark.parametrize("args, names", [
+    (("--fix", "l1=abc"), ("--fix l1", "not a number")),
+    (("--fix", "l1=inf"), ("--fix l1", "not a finite number")),
+    (("--bounds", "r1=0:0.2"), ("--bounds r1", "r1 must be > 0")),
+    (("--fix", "l1=1.5", "--fix", "l1=1.6"), ("--fix", "l1 given twice")),
+    (("--parts", "all", "--part", "0.4,0.4"), ("--parts all and --part",)),
+    # one part named twice is one part: too few for one gripper
+    (("--part", "0.4,0.4", "--part", "0.4,0.4", "--objective", "worst"), ("--objective",)),
+])
+def test_more_bad_input_is_refused_before_anything_is_written(small_store, tmp_path, args,
+                                                             names):
+    """The refusals test_optimize.py does not ask for: one line naming the option, exit code 2,
+    no results file and no work directory."""
+    out = tmp_path / "opt.h5"
+    res = CliRunner().invoke(main, ["optimize", str(small_store), *args, "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    lines = [ln for ln in res.output.splitlines() if ln.strip()]
+    assert len(lines) == 1 and "Traceback" not in res.output, res.output
+    for name in names:
+        assert name in lines[0], (name, lines[0])
+    assert not out.exists() and not (tmp_path / "opt.h5.work").exists()
+
