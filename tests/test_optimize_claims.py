@@ -260,6 +260,13 @@ def test_the_memo_computes_each_map_once_even_when_it_cages_nothing(monkeypatch,
     loaded = MapScores(scores.scene, tmp_path)
     assert loaded.area(twin, 0.4, 0.4, 0.2) == 0.0 and len(loaded.table()) == 1
     assert len(calls) == 4
+    # without a work directory nothing is journalled, and every map is still computed once
+    bare = MapScores(scores.scene)
+    for _ in range(2):
+        bare.area(d, 1.2, 0.4, 0.2)
+    bare.save()
+    assert len(calls) == 5 and bare.computed == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == [evaluations.JOURNAL]
 
 
 # ---------------------------------------------------------------------------------------------
