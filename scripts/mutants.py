@@ -1,5 +1,5 @@
 """Mutation testing: does the test suite notice a small wrong change of the kernels (or of the code
-that stores and refines their results)?
+that stores, refines, optimises and reports their results)?
 
     .venv/bin/python scripts/mutants.py                 # every mutant of scripts/mutants.yaml
     .venv/bin/python scripts/mutants.py --only hull-coincide-tolerance path-tie-to-slip
@@ -14,8 +14,9 @@ change any result, the proof (`equivalent:`). Add entries there when kernels cha
 
 Each mutant runs in its own copy of the package and the tests (the working tree is never
 touched), with a fresh Numba cache (NUMBA_CACHE_DIR set to a new empty folder, so every kernel
-is compiled from the mutated source; a mutant outside the kernels' sources shares one cache of
-the unmutated kernels) and `pytest -x` on the fast kernel tests (FAST_TESTS). The
+is compiled from the mutated source; a mutant outside the kernels' sources is given one cache of
+the unmutated kernels, though Numba keys its cache directory by the sources' paths, so each copy
+compiles anew all the same) and `pytest -x` on the fast kernel tests (FAST_TESTS). The
 installed package is an editable install whose import hook would load the working tree's
 `sweep`; the runner removes that hook so the copy is imported. A mutant is *killed* when a test
 fails, errors or times out, and *survives* when the tests pass. The unmutated copy runs first

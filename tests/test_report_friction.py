@@ -119,8 +119,8 @@ def test_a_c_and_b_per_part_are_the_stores(made):
         assert row["c_of_a_best"] == g(metric(ds, "manipulation_c", a_best, r, mu))
         gains = key(b) > key(a)
         expected = (("C matches B" if key(c) == key(b) else "C beats B" if c > b
-                     else "C adds nothing" if key(c) == key(a) else "C recovers part")
-                    if gains else ("neither gains" if key(c) == key(a) else "C gains, B not"))
+                     else "C recovers part" if key(c) > key(a) else "C adds nothing")
+                    if gains else ("C gains, B not" if key(c) > key(a) else "neither gains"))
         assert row["verdict"] == expected
         assert row["recovered"] == (g((c - a) / (b - a)) if gains else "NaN")
     table = read_csv(out / "friction_candidates.csv")

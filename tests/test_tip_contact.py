@@ -623,6 +623,69 @@ def test_tip_path_meeting_both_stops_at_once_is_decided_by_tolerance(impl, desig
     assert res["t2"] == pytest.approx(TH2_MAX, abs=1e-11)
 
 
+#: Straight fingers (theta2_min = 0) whose tip strikes the part with the distal on its lower stop
+#: (D15 case 2), from random draws (l1, l2, r1, r2, r, mu, d and reconfig_step as
+#: `tip_finger_inputs`): (dx, dy, l1, l2, r1, r2, r, mu, reconfig_step).
+STRAIGHT_STRIKES = {
+    # the kernel's hold test at the strike said the tip holds (parallel columns, below)
+    "strike-a": (1.6002579966516164, 1.9063592126734437, 0.4978565528211391, 1.2596923108936773,
+                 0.15556381091133728, 0.16324860454782192, 0.8231072870562676, 1.0, 0.05),
+    "strike-b": (-0.00599271113066258, 2.0372122268871595, 0.5914118033916532,
+                 0.4555998440364209, 0.17114771955114058, 0.13202349162426677,
+                 1.0990261989392918, 1.0, 0.2),
+    # the strike does not hold in the kernel either: the tip path starts and is lost at once,
+    # where the stick-within-the-last-step rule's guard decides (D15 "Within one step")
+    "path-start": (-3.652883100107087, 1.420132766065952, 1.5155793130765929,
+                   1.1743090067299191, 0.14171837718005634, 0.06577910645505673,
+                   1.3878556396308885, 1.0, 0.01),
+}
+
+
+@needs_kernel
+@pytest.mark.parametrize("case", list(STRAIGHT_STRIKES.values()), ids=list(STRAIGHT_STRIKES))
+def test_a_straight_fingers_tip_that_cannot_hold_at_its_strike_is_lost_there(case):
+    """A straight finger's tip on the disc with the distal on its lower stop t2 = 0: the tip's
+    columns (T x e, (T - B) x e) of both friction-cone edges e = n +- mu t are multiples of D =
+    (l1 + l2, l2) (T = (l1 + l2) u, T - B = l2 u); here of opposite signs, so the tip supplies
+    any multiple of D, and the lower stop only a closing torque lambda >= 0 in the distal joint
+    (a stop pushes). tau = (r1, r2) balances iff tau1 D2 - tau2 D1 >= 0 (lambda = that / D1):
+    worked out here, < 0, so the tip does not hold at the strike (MODEL 5.1), and on the tip
+    path just beyond it (t2 = 1e-6, 1e-3) the tendon is balanced only by a pulling tip (gtip >=
+    0, normal force < 0, the statics of naive_tip): lost at once, SLIPPED where it struck
+    (t2 = 0). Checked: the kernel's hold test accepting the meeting point of two constraint
+    lines parallel but for round-off (it held the tip, TIP_ONLY, in "strike-a" and "strike-b":
+    32 of 3,945 random straight-finger draws disagreed with the reference so) and the stick rule
+    without its guard at the path's start (TIP_ONLY at t2 = 0 in "path-start") each fail
+    here."""
+    dx, dy, l1, l2, r1, r2, r, mu, step = case
+    t1 = naive_tip.tip_strike_t1(dx, dy, 0.0, l1, l2, r)
+    (tip, n, _), joint = naive_tip.tip_contact(dx, dy, t1, 0.0, l1, l2)
+    u, t = (math.cos(t1), math.sin(t1)), naive_tip.rot90(n)
+    edges = [(n[0] + s * mu * t[0], n[1] + s * mu * t[1]) for s in (1.0, -1.0)]
+    moments = [naive_tip.cross(u, e) for e in edges]
+    assert moments[0] * moments[1] < 0
+    for e, moment in zip(edges, moments):
+        column = naive_tip.contact_column(tip, e, True, joint)
+        assert column == pytest.approx((moment * (l1 + l2), moment * l2), abs=1e-12)
+    assert r1 * l2 - r2 * (l1 + l2) < 0
+    for t2 in (1e-6, 1e-3):
+        a = naive_tip.tip_strike_t1(dx, dy, t2, l1, l2, r)
+        c_n, c_t = naive_tip.tip_columns(dx, dy, a, t2, l1, l2)
+        gtip = naive_tip.cross((r1, r2), c_n) + mu * abs(naive_tip.cross((r1, r2), c_t))
+        assert gtip >= 0.0 and naive_tip.normal_force((r1, r2), c_n, c_t) < 0.0, t2
+    from sweep.kernels.finger import solve_finger
+    from sweep.kernels.records import NO_EFFECTS, TipContact
+    from kernel_calls import finger_model, solver_settings
+
+    got = solve_finger(dx, dy, finger_model(l1, l2, r1, r2, r, mu, 0.0, TH2_MAX),
+                       solver_settings(step, 1e-12),
+                       NO_EFFECTS._replace(tip_contact=TipContact(True)))
+    assert (got.mode, got.t2) == (SLIPPED, 0.0)
+    assert got.t1 == pytest.approx(t1, abs=1e-12)
+    ref = naive_tip_finger(dx, dy, l1, l2, r1, r2, r, mu, 0.0, TH2_MAX, step, 1e-12)
+    assert (ref["mode"], ref["t2"]) == (SLIPPED, 0.0)
+
+
 @pytest.mark.parametrize("impl", IMPLS)
 def test_frictionless_tip_pinch_centre_on_the_mouth_is_not_contained(impl):
     """A grid-point tie worked by hand: design l1 = 1.8, l2 = 1.2, r1 = 0.08, r2 = 0.18, w = 0;

@@ -174,7 +174,7 @@ def optimize(store, part_items, parts, evaluations, seed, fix_items, bound_items
 
     from ..runs.optimize import OptimizeSettings, default_box, optimize_store, work_path
     from ..runs.runner import resolve_threads
-    from ..storage.optimized import optimization_path
+    from ..storage.optimized import optimization_path, read_identity
     from ..storage.store import read_store
 
     fixed = parse_fixed(fix_items)
@@ -208,6 +208,11 @@ def optimize(store, part_items, parts, evaluations, seed, fix_items, bound_items
         raise UserError(f"--tolerance: {tolerance:g} is larger than the box's smallest length "
                         f"or radius ({smallest:g}; l1, l2, r1, r2 at their upper bounds)")
     out = Path(out) if out is not None else optimization_path(store)
+    # results of another identity are made again; anything else under that name (a store, the
+    # input itself) is the user's and stays
+    if out.exists() and read_identity(out) is None:
+        raise UserError(f"--out: {out} exists and is not a results file of `sweep optimize`; "
+                        "it is left alone (give another --out)")
     threads = resolve_threads(threads)
     settings = OptimizeSettings(evaluations=evaluations, seed=seed, n_seeds=n_seeds,
                                 starts=starts, levels=levels, tolerance=tolerance,

@@ -163,7 +163,10 @@ def vertex_contact_holds(tau1, tau2, cn1, cn2, ct1, ct2, mu_s, kind1, kind2):
             if q >= 3 and ((q == 3 and not used1) or (q == 4 and not used2)):
                 continue
             det = a1[p] * a2[q] - a2[p] * a1[q]
-            if det == 0.0:
+            # lines parallel but for round-off (a straight finger's tip columns, t2 = 0) meet
+            # anywhere far along them, and there the checks' tolerance, which grows with F,
+            # passes; a feasible set has its vertices where other lines meet
+            if abs(det) <= 1e-12 * (abs(a1[p] * a2[q]) + abs(a2[p] * a1[q])):
                 continue
             f = (b[p] * a2[q] - a2[p] * b[q]) / det
             g = (a1[p] * b[q] - b[p] * a1[q]) / det

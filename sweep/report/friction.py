@@ -53,14 +53,16 @@ def b_gains(a: float, b: float) -> bool:
 
 
 def verdict(a: float, c: float, b: float) -> str:
-    """What friction modulation does for one part, against variable geometry (D34)."""
+    """What friction modulation does for one part, against variable geometry (D34). C's best
+    candidate may be another gripper than A's, below A on a part: that adds nothing either."""
+    c_gains = c > a and not _same(c, a)
     if b_gains(a, b):
         if _same(c, b):
             return "C matches B"
         if c > b:
             return "C beats B"
-        return "C adds nothing" if _same(c, a) else "C recovers part"
-    return "neither gains" if _same(c, a) else "C gains, B not"
+        return "C recovers part" if c_gains else "C adds nothing"
+    return "C gains, B not" if c_gains else "neither gains"
 
 
 def friction_rows(st: StoreData, a_best: dict, c_best: dict) -> list[dict]:

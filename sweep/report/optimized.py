@@ -14,8 +14,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.maps import scene_map
-from ..storage.optimized import (CONSTRAINTS, SIDE_MEANINGS, optimization_path,
-                                 read_optimization)
+from ..storage.optimized import (CONSTRAINTS, SIDE_MEANINGS, optimization_created,
+                                 optimization_path, read_optimization)
 from .data import DESIGN_DIMS, StoreData, fmt
 from .plot import draw_map_panel
 from .style import NOTE_UNITLESS, SCENE_COLOURS
@@ -30,9 +30,10 @@ X_GRIPPER, G_GRIPPER = "x* (optimum found)", "G (grid's best)"
 
 
 def optimized_file(st: StoreData) -> Path | None:
-    """The store's optimisation results, if it has been optimised."""
+    """The store's optimisation results, if it has been optimised (another file under that name
+    is none: no section, as the report's identity has none)."""
     p = optimization_path(st.path)
-    return p if p.is_file() else None
+    return p if optimization_created(st.path) is not None else None
 
 
 def optimization_rows(path: Path) -> list[dict]:

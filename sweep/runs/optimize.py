@@ -211,7 +211,10 @@ def constraint_changes(area, box: Box, x: np.ndarray, steps: np.ndarray, h: floa
     area (at h) for a step inwards and a step outwards (NaN when the model does not accept the
     stepped design). {name: (side, inward, outward)}."""
     out = {}
-    loose = Box(tuple(np.full(5, 1e-3)), tuple(np.full(5, 1e3)), {}, None, box.resolution)
+    # rounded to the resolution, never clipped: a clip would move w = 0 (and its steps below
+    # 0) to a small positive width, so every change at such an x* would be another design's
+    loose = Box(tuple(np.full(5, -np.inf)), tuple(np.full(5, np.inf)), {}, None,
+                box.resolution)
     for name, side in box.active(x).items():
         if name == "length_budget":
             s = steps[0]
@@ -364,7 +367,7 @@ def optimise_joint(scores: MapScores, scene: Scene, box: Box, parts: list,
                       errors=np.abs(at_h1 - at_h), own_fine=own_h1, loss=loss,
                       designs_scored=len(seen), maps=len(used),
                       seconds=float(sum(scores.seconds[k] for k in used)),
-                      constraints={k: v[0] for k, v in box.active(x).items()})
+                      constraints=dict(box.active(x)))
 
 
 # ---------------------------------------------------------------------------------------------
