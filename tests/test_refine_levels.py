@@ -177,3 +177,27 @@ def test_re_admitted_class_reopens_the_levels_by_hand(scene, tmp_path, monkeypat
     assert ref.bound_widened[0] == pytest.approx(0.1)      # C came back audited
     assert ref.audit_designs[0] == 3 and ref.audit_level[0] == 2
     assert ref.level_maps == [6, 5] and ref.widen_maps == 2
+
+
+def test_a_best_whose_changes_grow_goes_one_level_further_by_hand(scene, tmp_path, monkeypatch):
+    """model-notes D37: a part is certified only when its best's changes shrink. Level 1: floor
+    {A, B}, D = 1.0, cut 9.0 - 3.0 = 6.0 (C .. F do not contend). A 9.0 +- 1.0 (low 8.0), B
+    7.5 +- 0.5 reaches 8.0 and stays. Level 2, leader first: A 10.5, its change 1.5 larger than
+    its last 1.0: +- 2.5 (low 8.0); B's last interval reaches 8.0, so B is computed: 7.4, its
+    change 0.1 at most half its last: +- 0.1, up to 7.5: eliminated. A is alone but its changes
+    grew: the part goes on, A alone at h/8: 10.4 +- 0.1, certified there. The audit (C, D in
+    [3, 6), E, F below) all fall: nothing re-admitted."""
+    ref, calls = refine_by_table(
+        scene, tmp_path, monkeypatch,
+        screened={A: 10.0, B: 8.0, C: 5.0, D: 4.0, E: 2.0, F: 1.0},
+        levels={1: {A: 9.0, B: 7.5, C: 4.9, D: 3.9, E: 1.9, F: 0.9},
+                2: {A: 10.5, B: 7.4, C: 4.85, D: 3.85, E: 1.85, F: 0.85},
+                3: {A: 10.4, C: 4.84, D: 3.84, E: 1.84, F: 0.84}},
+        settings=RefineSettings(levels=3, bound=0.5, min_contenders=2))
+    assert calls == {"1a": {"A", "B"}, "2a": {"A"}, "2b": {"B"}, "3a": {"A"},
+                     "a1-1": {"C", "D", "E", "F"}, "a1-2": {"C", "D", "E", "F"},
+                     "a1-3": {"C", "D", "E", "F"}}
+    assert ref.status[0] == STATUS["certified"] and ref.finest_level[0] == 3
+    error = per_class(ref, ref.error)
+    assert error["A"] == pytest.approx(0.1) and error["B"] == pytest.approx(0.1)
+    assert ref.audit_rise[0] == 0.0 and not ref.readmitted.any()
