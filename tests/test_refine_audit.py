@@ -119,3 +119,20 @@ def test_error_estimate_by_hand(change, before, want):
     from sweep.runs import certificate as cert
 
     assert cert.error_estimate(change, before) == pytest.approx(want, rel=1e-12)
+
+
+def test_a_design_left_out_and_unaudited_comes_back_by_the_audits_rise(scene, tmp_path,
+                                                                      monkeypatch):
+    """With a sample of one class per stratum the true best (class 10) is not audited; the
+    audited classes' largest relative rise, applied to its screened 6.5, reaches the best's
+    interval, so it is re-admitted by the bound, not by its own value (model-notes D37)."""
+    from sweep.runs import certificate as cert
+
+    monkeypatch.setattr(cert, "AUDIT_STRATA", ((0.6, 1), (0.3, 1), (0.0, 1)))
+    monkeypatch.setattr(rf, "audit_sample", cert.audit_sample)
+    screened, truth = synthetic_part(64)
+    truth[3:] = np.where(np.arange(3, 64) == 10, truth[3:], screened[3:] * 1.2)   # all rise
+    truth[10] = 9.5                                               # ... and 10 most
+    ref = refine_synthetic(scene, tmp_path, monkeypatch, screened, truth)
+    assert ref.role[10, 0] == rf.ROLE["best"] and ref.readmitted[10, 0]
+    assert ref.audit_rise[0] > 0.0
