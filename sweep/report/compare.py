@@ -132,7 +132,7 @@ def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
 
 def representatives(st1: StoreData, st2: StoreData) -> list[dict]:
     """Each scene's three representative designs of the caging-versus-tip parts (the rules of
-    `sweep.report.tip.representative_designs`)."""
+    `sweep.report.data.representative_designs`)."""
     rows = []
     for s, st in (("1", st1), ("2", st2)):
         for row in representative_rows(st):
