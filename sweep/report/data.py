@@ -42,6 +42,11 @@ MARKER = "report.json"
 NUMBER = "{:.6g}"
 
 
+#: What a report holds: raised when a change of the code adds or changes its files or
+#: sections, so that a report made before (same stores, same version) is redone, not kept.
+REPORT_FORMAT = 2
+
+
 #: Significant digits at which Lambda (and Scenario A sums) are compared: designs with the same
 #: configurations (same R = r2/r1) sum the same scores in another order, which differs in the
 #: last bits (seen: 2913.620282318659 against ...658), and must tie.
@@ -284,7 +289,8 @@ def identity(st: StoreData, top_k: int | None) -> dict:
                 store_refined_utc=a.get("refine_created_utc"),
                 store_optimized_utc=optimization_created(st.path),
                 store_schedule_utc=schedule_created(st.path), top_k=top_k,
-                manipulation=st.manipulation, report_version=__version__)
+                manipulation=st.manipulation, report_version=__version__,
+                report_format=REPORT_FORMAT)
 
 
 def resolve_top_k(st: StoreData, top_k: int | None) -> int | None:
@@ -397,4 +403,6 @@ class Comparison:
     optimized: list[tuple] = field(default_factory=list)
     #: per scene whose store has its schedules (`sweep schedule`): (tag, results file, rows)
     variable: list[tuple] = field(default_factory=list)
+    #: every finding of the paper with both scenes' numbers and verdicts (report.paper)
+    paper: list[dict] = field(default_factory=list)
     files: list[str] = field(default_factory=list)
