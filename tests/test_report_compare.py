@@ -126,6 +126,27 @@ def test_report_md_says_which_scene_to_trust_and_holds_the_tables(made):
         assert f"`{store}`" in text
 
 
+def test_the_findings_against_the_paper_are_in_the_report(made):
+    """Section 8 and against_paper.csv: one row per finding of sweep/report/paper.py, each
+    scene's verdict one of the four; the tiny stores hold one part, so the findings about the
+    paper's other parts are not testable, those about every part are (tests/test_report_paper.py
+    changes a store and checks that each verdict follows)."""
+    from sweep.report import paper
+
+    _, out, _, _ = made
+    rows = read_csv(out / "against_paper.csv")
+    assert [row["key"] for row in rows] == [f.key for f in paper.FINDINGS]
+    for row in rows:
+        assert row["verdict_1"] in paper.VERDICTS and row["verdict_2"] in paper.VERDICTS
+    by_key = {row["key"]: row for row in rows}
+    assert by_key["palm_smallest"]["verdict_1"] == paper.NOT_TESTABLE      # one friction
+    assert by_key["longest_links"]["verdict_1"] != paper.NOT_TESTABLE
+    text = (out / "report.md").read_text()
+    assert "## 8. Against the paper" in text
+    for row in rows:
+        assert f"| {row['verdict_1']} |" in text and row["claim"] in text
+
+
 def test_rerun_is_a_no_op(made):
     stores, out, _, _ = made
     before = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}

@@ -18,6 +18,8 @@ writes into `out_dir`:
 - with the store's schedules beside it (`sweep schedule`): `variable_geometry.png`,
   `variable_geometry.csv`: per part the best fixed setting against the best schedule "draw in,
   then hold" (MODEL 12);
+- `against_paper.csv`: every finding of the paper's discussion and conclusion, the store's
+  number(s) and a verdict (`sweep.report.paper`);
 - `report.md`: every table, the rules used, the settings, the run time and a templated reading;
 - `report.json`: what the report was made from (a rerun on the same store is a no-op).
 
@@ -39,7 +41,7 @@ from .. import __version__
 from ..files import text_bytes
 from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, best_columns,
                      refinement_rows)
-from . import caging, friction, manipulation, optimized, tip, usage, variable
+from . import caging, friction, manipulation, optimized, paper, tip, usage, variable
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
                    fmt, identity, md_table, part_text, report_files, resolve_top_k)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
@@ -70,7 +72,7 @@ VARIABLE_FILES = ("variable_geometry.png", "variable_geometry.csv")
 
 
 ALL_FILES = (CAGING_FILES + MANIPULATION_FILES + FRICTION_FILES + OPTIMIZATION_FILES
-             + VARIABLE_FILES + ("report.md", MARKER))
+             + VARIABLE_FILES + ("against_paper.csv", "report.md", MARKER))
 
 
 @dataclass
@@ -93,6 +95,7 @@ class Report:
     optimized_path: Path | None = None
     variable: list[dict] = field(default_factory=list)
     variable_path: Path | None = None
+    paper: list[dict] = field(default_factory=list)
 
 
 def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
@@ -115,6 +118,7 @@ def make_tables(st: StoreData, top_k: int | None, log=lambda s: None) -> Report:
     rep.variable_path = variable.schedule_file(st)
     if rep.variable_path is not None:
         rep.variable = variable.variable_rows(rep.variable_path)
+    rep.paper = paper.finding_rows(st, top_k)
     return rep
 
 
@@ -155,6 +159,7 @@ def build_report(store: Path, out_dir: Path, top_k: int | None = None, log=lambd
         write("variable_geometry.csv", csv_bytes(rep.variable, variable.columns(rep.variable)))
         write("variable_geometry.png", png(variable.variable_figure(st, rep.variable,
                                                                     rep.variable_path, log)))
+    write("against_paper.csv", csv_bytes(rep.paper, paper.COLUMNS))
     write("best_caging.png", png(best_caging_figure(st, rep.best, log)))
     write("caging_vs_tip.png", png(caging_tip_figure(st, rep.representatives, log)))
     write("report.md", text_bytes(markdown(st, rep)))
@@ -401,6 +406,7 @@ def markdown(st: StoreData, rep: Report) -> str:
         L += ["", "## 7. Variable geometry in the grasp, `sweep schedule` "
               "(`variable_geometry.png`, `variable_geometry.csv`)", ""]
         L += variable.section(rep.variable, rep.variable_path)
+    L += ["", "## 8. Against the paper (`against_paper.csv`)", ""] + paper.section(rep.paper)
     L += ["", "## Reading", ""] + reading(st, rep)
     L += ["", "## Compared with the paper", ""] + comparison(st, rep)
     L.append("")

@@ -20,6 +20,8 @@ designs, parts and grid (`check_comparable` refuses others) and writes into `out
 - when a store has its schedules (`sweep schedule`: its results file beside it):
   `variable_geometry_S.png`, `variable_geometry_S.csv` for that scene S: per part the best
   fixed setting against the best schedule "draw in, then hold" (MODEL 12);
+- `against_paper.csv`: every finding of the paper's discussion and conclusion, each scene's
+  number(s) and verdict (`sweep.report.paper`);
 - `report.md`: every table, the rules, both scenes' settings, a templated reading and which
   scene a designer should trust for hardware;
 - `report.json`: what the report was made from (a rerun on the same stores is a no-op).
@@ -36,9 +38,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import __version__
-from . import caging, friction, manipulation, optimized, tip, usage, variable
+from . import caging, friction, manipulation, optimized, paper, tip, usage, variable
 from .caging import best_caging_rows
-from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, Comparison, StoreData,
+from .data import (DESIGN_DIMS, MARKER, PARAMETERS, REPORT_FORMAT, TIE_DIGITS, Comparison,
+                   StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
                    report_files, scene_label, scene_name)
 from .manipulation import candidate_rows, manipulation_rows
@@ -53,7 +56,7 @@ FILES = ("best_designs.png", "best_designs.csv", "caging_vs_tip.png", "caging_vs
          "friction.png", "friction.csv", "friction_candidates.csv", "caging_modulation.csv",
          "optimization_1.png", "optimization_1.csv", "optimization_2.png", "optimization_2.csv",
          "variable_geometry_1.png", "variable_geometry_1.csv", "variable_geometry_2.png",
-         "variable_geometry_2.csv", "report.md", MARKER)
+         "variable_geometry_2.csv", "against_paper.csv", "report.md", MARKER)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -132,7 +135,7 @@ def caging_tip_rows(st1: StoreData, st2: StoreData) -> list[dict]:
 
 def representatives(st1: StoreData, st2: StoreData) -> list[dict]:
     """Each scene's three representative designs of the caging-versus-tip parts (the rules of
-    `sweep.report.tip.representative_designs`)."""
+    `sweep.report.data.representative_designs`)."""
     rows = []
     for s, st in (("1", st1), ("2", st2)):
         for row in representative_rows(st):
@@ -228,6 +231,7 @@ def make_tables(st1: StoreData, st2: StoreData, top_k: int | None,
         path = variable.schedule_file(st)
         if path is not None:
             rep.variable.append((tag, path, variable.variable_rows(path)))
+    rep.paper = paper.pair_rows(paper.finding_rows(st1, top_k), paper.finding_rows(st2, top_k))
     return rep
 
 
@@ -242,7 +246,8 @@ def comparison_identity(st1: StoreData, st2: StoreData, top_k: int | None) -> di
                 store_created_utc=[one["store_created_utc"], two["store_created_utc"]],
                 store_optimized_utc=[one["store_optimized_utc"], two["store_optimized_utc"]],
                 store_schedule_utc=[one["store_schedule_utc"], two["store_schedule_utc"]],
-                top_k=top_k, manipulation=st1.manipulation, report_version=__version__)
+                top_k=top_k, manipulation=st1.manipulation, report_version=__version__,
+                report_format=REPORT_FORMAT)
 
 
 def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | None = None,
@@ -283,6 +288,7 @@ def build_comparison(store_1: Path, store_2: Path, out_dir: Path, top_k: int | N
         write(f"variable_geometry_{tag}.csv", csv_bytes(rows, variable.columns(rows)))
         write(f"variable_geometry_{tag}.png", png(variable.variable_figure(
             st, rows, path, lambda m, tag=tag: log(f"scene {tag}: {m}"))))
+    write("against_paper.csv", csv_bytes(rep.paper, paper.PAIR_COLUMNS))
     write("caging_vs_tip.png", png(tip.pair_figure(st1, st2, rep)))
     write("best_designs.png", best_png.result())
     write("report.md", markdown(st1, st2, rep).encode())
@@ -501,6 +507,8 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
               f"({scene_name(st)}: `variable_geometry_{tag}.png`, "
               f"`variable_geometry_{tag}.csv`)", ""]
         L += variable.section(rows, path)
+    L += ["", "## 8. Against the paper (`against_paper.csv`)", ""]
+    L += paper.section(rep.paper, (scene_name(st1), scene_name(st2)))
     L += ["", "## Reading", ""] + reading(st1, st2, rep)
     L.append("")
     return "\n".join(L)

@@ -42,6 +42,11 @@ MARKER = "report.json"
 NUMBER = "{:.6g}"
 
 
+#: What a report holds: raised when a change of the code adds or changes its files or
+#: sections, so that a report made before (same stores, same version) is redone, not kept.
+REPORT_FORMAT = 2
+
+
 #: Significant digits at which Lambda (and Scenario A sums) are compared: designs with the same
 #: configurations (same R = r2/r1) sum the same scores in another order, which differs in the
 #: last bits (seen: 2913.620282318659 against ...658), and must tie.
@@ -223,6 +228,25 @@ def best_design(st: StoreData, ri: int, mi: int) -> dict:
     return row
 
 
+def representative_designs(caged: np.ndarray, tip: np.ndarray) -> dict[str, int]:
+    """Flat design indices of the three representative designs of one part (rules in
+    report.md): caging focused = most caged end points, fewer tip ones breaking ties; tip
+    focused = most tip-prehension end points, fewer caged breaking ties; compromise = the
+    largest min(caged / most caged, tip / most tip), then the largest sum of both fractions.
+    Remaining ties: first in store order."""
+    caged = np.asarray(caged, dtype=np.float64)
+    tip = np.asarray(tip, dtype=np.float64)
+    order = np.arange(caged.size)
+    fc = caged / caged.max() if caged.max() > 0 else np.zeros_like(caged)
+    ft = tip / tip.max() if tip.max() > 0 else np.zeros_like(tip)
+    # np.lexsort: last key is primary; `order` last-but-first keeps store order among ties
+    return {
+        "caging focused": int(np.lexsort((order, tip, -caged))[0]),
+        "tip focused": int(np.lexsort((order, caged, -tip))[0]),
+        "compromise": int(np.lexsort((order, -(fc + ft), -np.minimum(fc, ft)))[0]),
+    }
+
+
 def csv_bytes(rows: list[dict], columns: list[str]) -> bytes:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
@@ -265,7 +289,8 @@ def identity(st: StoreData, top_k: int | None) -> dict:
                 store_refined_utc=a.get("refine_created_utc"),
                 store_optimized_utc=optimization_created(st.path),
                 store_schedule_utc=schedule_created(st.path), top_k=top_k,
-                manipulation=st.manipulation, report_version=__version__)
+                manipulation=st.manipulation, report_version=__version__,
+                report_format=REPORT_FORMAT)
 
 
 def resolve_top_k(st: StoreData, top_k: int | None) -> int | None:
@@ -378,4 +403,6 @@ class Comparison:
     optimized: list[tuple] = field(default_factory=list)
     #: per scene whose store has its schedules (`sweep schedule`): (tag, results file, rows)
     variable: list[tuple] = field(default_factory=list)
+    #: every finding of the paper with both scenes' numbers and verdicts (report.paper)
+    paper: list[dict] = field(default_factory=list)
     files: list[str] = field(default_factory=list)

@@ -7,7 +7,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..compute.maps import scene_map
-from .data import Comparison, DESIGN_DIMS, StoreData, design_text, fmt, scene_name, short_scene
+from .data import (Comparison, DESIGN_DIMS, StoreData, design_text, fmt,
+                   representative_designs, scene_name, short_scene)
 from .plot import draw_map_panel
 from .style import NOTE_UNITLESS, REPRESENTATIVE_COLOURS, SCENE_COLOURS
 
@@ -31,25 +32,6 @@ def caging_tip_rows(st: StoreData) -> list[dict]:
                              n_caged=int(caged[k]), n_tip_prehension=int(tip[k]),
                              Lambda=float(lam[k])))
     return rows
-
-
-def representative_designs(caged: np.ndarray, tip: np.ndarray) -> dict[str, int]:
-    """Flat design indices of the three representative designs of one part (rules in
-    report.md): caging focused = most caged end points, fewer tip ones breaking ties; tip
-    focused = most tip-prehension end points, fewer caged breaking ties; compromise = the
-    largest min(caged / most caged, tip / most tip), then the largest sum of both fractions.
-    Remaining ties: first in store order."""
-    caged = np.asarray(caged, dtype=np.float64)
-    tip = np.asarray(tip, dtype=np.float64)
-    order = np.arange(caged.size)
-    fc = caged / caged.max() if caged.max() > 0 else np.zeros_like(caged)
-    ft = tip / tip.max() if tip.max() > 0 else np.zeros_like(tip)
-    # np.lexsort: last key is primary; `order` last-but-first keeps store order among ties
-    return {
-        "caging focused": int(np.lexsort((order, tip, -caged))[0]),
-        "tip focused": int(np.lexsort((order, caged, -tip))[0]),
-        "compromise": int(np.lexsort((order, -(fc + ft), -np.minimum(fc, ft)))[0]),
-    }
 
 
 def representative_rows(st: StoreData) -> list[dict]:
