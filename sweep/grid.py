@@ -139,7 +139,7 @@ CELL_COLUMNS = ("l1", "l2", "r1", "r2", "r", "mu")
 #: vertices and the metric is that of the two extreme commands, which are the ones computed.
 SCENARIO_A_COMMANDS = tuple(round(0.2 * k, 12) for k in range(1, 10))
 SCENARIO_A_EXTREMES = (SCENARIO_A_COMMANDS[0], SCENARIO_A_COMMANDS[-1])
-ENTRY_CAPACITY = 4096  # counted (pose, width) pairs per cell before the cell is redone bigger
+ENTRY_CAPACITY = 16384  # counted (pose, width) pairs per cell before the cell is redone bigger
 
 
 def cell_extent(l1: float, l2: float, r: float, widths, h: float) -> tuple[int, int, int]:
