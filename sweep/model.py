@@ -92,10 +92,10 @@ class Limits:
         return math.radians(self.theta2_max_deg)
 
 
-#: The step resolution of the trajectories (Accuracy.step_resolution): walls of vertex strikes
-#: (about 0.034 wide on the paper's largest fingers) and bands of equilibrium are resolved by a
-#: grid this fine (docs/accuracy.md), so the checks make a coarser grid's steps act as its.
-DEFAULT_STEP_RESOLUTION = 0.0125
+#: The step resolution of the trajectories (Accuracy.step_resolution): the largest gap between
+#: samples of a step. Walls of vertex strikes are about 0.034 wide on the paper's largest
+#: fingers, so samples 0.025 apart find every one a step crosses (model-notes D36).
+DEFAULT_STEP_RESOLUTION = 0.025
 
 
 def step_resolution_ok(value) -> bool:

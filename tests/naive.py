@@ -657,9 +657,10 @@ SLIDE_CASCADE = (("step", 1.0),                      # (a) the step's search on 
                  ("step", 0.25),                     # (b) the step's search on the circle of h/4
                  ("thorough", 1.0))                  # (c) the thorough search on the circle of h
 SLIDE_REL = 1e-12                                    # "lower": E < E_ref - 1e-12 |E_ref|
-STEP_RESOLUTION = 0.0125                             # D36: Accuracy.step_resolution's default
+STEP_RESOLUTION = 0.025                              # D36: Accuracy.step_resolution's default
 # D36: the stage of the closing sequence that made a finger's first contact (M4)
 CLOSING_STAGE = {EV_PROXIMAL: 0, EV_DISTAL: 1, EV_VERTEX_B: 2, EV_VERTEX_T: 2, EV_NONE: 3}
+WALL_MOVES = 4                                       # D36: moves along a wall on h/4's circle
 SLIDE_SEARCHES_PER_CELL = 64                         # at most 64 (nx + ny) searches per slide
 
 
@@ -683,8 +684,10 @@ class ReferenceGrid:
         self.l1, self.l2, self.r1, self.r2, self.w, self.r, self.mu = l1, l2, r1, r2, w, r, mu
         self.f_left, self.f_right, self.h, self.theta2_min = f_left, f_right, h, theta2_min
         self.trajectory = trajectory
-        # D36: steps are sampled only on a grid coarser than the resolution (0: never)
-        self.resolution = step_resolution if 0.0 < step_resolution < h else None
+        # D36: steps are sampled only where longer than the resolution (0: never); a grid
+        # whose diagonal is not longer samples nothing
+        self.resolution = (step_resolution if 0.0 < step_resolution < h * math.sqrt(2.0)
+                           else None)
 
         # --- Grid (M8, D1) -------------------------------------------------------------------
         if xlim is None:
@@ -892,7 +895,7 @@ class ReferenceGrid:
         jj = min(max(math.floor((py - self.y[0]) / self.h + 0.5), 0), self.ny - 1)
         return (jj, ii)
 
-    def slide_move(self, px, py, e_here, searches_left):
+    def slide_move(self, px, py, e_here, searches_left, along_wall=False):
         """One move of a slide from (px, py), D16 "The cascade": (a) the step's search on the
         circle of h, (b) the step's search on the circle of h/4, (c) the thorough search on the
         circle of h; the first that finds a point strictly below e_here gives the move. Each
@@ -901,11 +904,18 @@ class ReferenceGrid:
         With step checks (D36) a search's point counts only if the straight move to it is clear;
         a move that leaves P_j on the way is ("leaves", x, y).
 
-        Returns (move or None, searches used, stage); a move is (energy, x, y, class), stage the
-        index in SLIDE_CASCADE of the search that gave it (None without a move)."""
+        `along_wall` (D36): a step of (a) was blocked within the last WALL_MOVES moves; (a) is
+        skipped.
+
+        Returns (move or None, searches used, stage, whether (a)'s point was blocked); a move is
+        (energy, x, y, class), stage the index in SLIDE_CASCADE of the search that gave it (None
+        without a move)."""
         searches = {"step": self.step_search, "thorough": self.thorough_search}
         used = 0
+        blocked = False
         for stage, (kind, fraction) in enumerate(SLIDE_CASCADE):
+            if stage == 0 and along_wall:
+                continue
             if used == searches_left:
                 break
             used += 1
@@ -914,11 +924,12 @@ class ReferenceGrid:
                 if self.resolution is not None:
                     check, gx, gy = self.step_check(px, py, e_here, best[1], best[2])
                     if check == "blocked":
+                        blocked = blocked or stage == 0
                         continue
                     if check == "leaves":
-                        return ("leaves", gx, gy), used, stage
-                return best, used, stage
-        return None, used, None
+                        return ("leaves", gx, gy), used, stage, blocked
+                return best, used, stage, blocked
+        return None, used, None, blocked
 
     def slide(self, jj, ii):
         """D16 step 2 from the grid point (jj, ii), where no neighbour is lower.
@@ -930,9 +941,15 @@ class ReferenceGrid:
         px, py, e_here = self.x[ii], self.y[jj], e_start
         x0, y0, h, nx, ny = self.x[0], self.y[0], self.h, self.nx, self.ny
         searches_left = SLIDE_SEARCHES_PER_CELL * (nx + ny)  # defence in depth (D16)
+        wall = 0                            # D36: moves of (b) left before (a) is tried again
         while True:
-            move, used, stage = self.slide_move(px, py, e_here, searches_left)
+            move, used, stage, blocked = self.slide_move(px, py, e_here, searches_left,
+                                                         along_wall=wall > 0)
             searches_left -= used
+            if blocked:
+                wall = WALL_MOVES
+            if stage == 1 and wall > 0:
+                wall -= 1
             if stage is not None:
                 self.cascade_moves[stage] += 1
             if move is None:                                 # nothing lower, or no budget

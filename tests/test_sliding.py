@@ -263,8 +263,8 @@ def test_thorough_search_finds_the_narrow_wedge():
     thorough = grid.thorough_search(x0, y0, h)        # (c)
     assert naive.strictly_below(thorough[0], e0) and thorough[0] <= energy(11.25)[0]
     assert 0.0 < math.degrees(math.atan2(thorough[2] - y0, thorough[1] - x0)) < 22.5
-    assert grid.slide_move(x0, y0, e0, 3) == (thorough, 3, 2)
-    assert grid.slide_move(x0, y0, e0, 2) == (None, 2, None)   # budget spent: stalled (D16)
+    assert grid.slide_move(x0, y0, e0, 3)[:3] == (thorough, 3, 2)
+    assert grid.slide_move(x0, y0, e0, 2)[:3] == (None, 2, None)   # budget spent: stalled (D16)
 
 
 def test_the_first_search_that_descends_gives_the_move():
@@ -280,7 +280,7 @@ def test_the_first_search_that_descends_gives_the_move():
     a = grid.step_search(x0, y0, CREASE_H)
     assert naive.strictly_below(a[0], e0)
     assert grid.thorough_search(x0, y0, CREASE_H)[0] < a[0]
-    assert grid.slide_move(x0, y0, e0, 3) == (a, 1, 0)
+    assert grid.slide_move(x0, y0, e0, 3)[:3] == (a, 1, 0)
 
     # (b) before (c)
     design, commands, window = SLIDE_CASES["unequal-commands"]
@@ -298,7 +298,7 @@ def test_the_first_search_that_descends_gives_the_move():
     assert abs(math.hypot(b[1] - x0, b[2] - y0) - h / 4) < 1e-12
     c = grid.thorough_search(x0, y0, h)
     assert c[0] < b[0] - 1e-4                             # (c) would go clearly lower
-    assert grid.slide_move(x0, y0, e0, 3) == (b, 2, 1)
+    assert grid.slide_move(x0, y0, e0, 3)[:3] == (b, 2, 1)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -507,3 +507,29 @@ def test_slide_stop_positions_match_reference(maps, name):
 def test_slide_stop_positions_match_reference_random_designs(design, commands):
     ref = reference_map(design, commands, h=0.2)
     assert_same_slide_stops(kernel_map(design, commands, h=0.2), ref)
+
+
+# A slide that meets a wall (model-notes D36, 4.): found by comparing the kernel's end states with
+# and without the wall moves on the 208 maps of the screening sample (2026-12-05).
+WALL_DESIGN = (2.0, 1.6, 0.2, 0.18, 1.2, 1.2, 0.4)          # l1, l2, r1, r2, w, r, mu
+WALL_STARTS = ((-1.25, 1.65), (1.25, 1.65), (-1.3, 1.7))
+
+
+def test_a_slide_along_a_wall_takes_the_references_small_moves(monkeypatch):
+    """From these starts (h = 0.05, checked steps) a slide's move on the circle of h is blocked
+    by a wall and the slide goes on along it with WALL_MOVES moves on the circle of h/4 before
+    it tries h again. The kernel ends each where the reference does; the reference without the
+    wall moves (WALL_MOVES = 0: the plain cascade at every position) ends elsewhere, so the case
+    exercises the rule (a kernel without it ended at the other point, checked 2026-12-05)."""
+    m = kernel_map(WALL_DESIGN, h=0.05)
+    nx = m.x.size
+    for x, y in WALL_STARTS:
+        i, j = int(np.argmin(np.abs(m.x - x))), int(np.argmin(np.abs(m.y - y)))
+        ref = naive_trajectory((x, y), *WALL_DESIGN, h=0.05)
+        assert (int(m.fields["end_state"][j, i]), int(m.fields["end_index"][j, i])) == \
+            (ref["end_state"], ref["end_index"]), (x, y)
+        with monkeypatch.context() as patched:
+            patched.setattr(naive, "WALL_MOVES", 0)
+            plain = naive_trajectory((x, y), *WALL_DESIGN, h=0.05)
+        assert plain["end_index"] != ref["end_index"], (x, y)
+        assert ref["end_index"] // nx != j or ref["end_index"] % nx != i

@@ -5,11 +5,12 @@ every grid neighbour is uphill, with a memo of the model's outcomes off the grid
 (`streamline.py`).
 
 Grid8 and sliding move the part in straight steps between positions where the model was
-evaluated. Where the grid is coarser than `SolverSettings.step_resolution`, a step whose two ends
-could lie on either side of something narrower than the grid (its ends' first contacts made in
-different stages of the closing sequence, or any move of a slide) is sampled at that
-resolution: it is blocked where the energy rises above both ends (a wall: a band of vertex
-strikes, say) and it ends where the part leaves P_j (model-notes D36).
+evaluated. A step longer than `SolverSettings.step_resolution` whose two ends could lie on
+either side of something narrower than the grid (its ends' first contacts made in different
+stages of the closing sequence, or any move of a slide) is sampled at that resolution: it is
+blocked where the energy rises above both ends (a wall: a band of vertex strikes, say) and it
+ends where the part leaves P_j; a slide that met a wall goes on along it with small moves
+(WALL_MOVES; model-notes D36).
 """
 import math
 import numpy as np
@@ -75,6 +76,9 @@ SLIDE_REFINE = 3
 SLIDE_REL = 1e-12
 # Defence in depth: a slide is at most this many circles per grid step of the map's size.
 SLIDE_STEPS_PER_CELL = 64
+# After a step of the circle of h was blocked (a wall ahead), the slide goes on along the wall
+# with this many moves on the circle of h/4 before it tries the circle of h again.
+WALL_MOVES = 4
 
 
 @entry
@@ -420,9 +424,12 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
     y = ys[j0]
     e_here = e_start
     stage = 0
+    wall = 0   # small moves left before the step's search on the circle of h is tried again
     scratch = np.empty(SLIDE_DIRECTIONS)
     n_path = record(path, np.int64(0), x, y)
     for _ in range(max_slide_points(ny, nx) - 1):
+        if stage == 0 and wall > 0:
+            stage = 1
         rho = h * SLIDE_CASCADE_RADIUS[stage]
         e, c, ux, uy = lowest_on_circle(x, y, rho, np.bool_(SLIDE_CASCADE_THOROUGH[stage]),
                                         scratch,
@@ -432,6 +439,8 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
                                       finger, solver, effects, hand, memo, context)
             if kind == STEP_BLOCKED:
                 e = np.inf
+                if stage == 0:
+                    wall = WALL_MOVES
             elif kind == STEP_LEAVES:
                 n_path = record(path, n_path, gx, gy)
                 return nearest_grid_point(gx, gy, xs, ys, h), SLIDE_EJECTS, n_path
@@ -443,6 +452,8 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
         x += rho * ux
         y += rho * uy
         e_here = e
+        if stage == 1 and wall > 0:
+            wall -= 1
         stage = 0
         n_path = record(path, n_path, x, y)
         fi = (x - xs[0]) / h
@@ -480,8 +491,9 @@ def slide_successor(energy, point_class, equilibrium, xs, ys, i0, j0, finger, so
 
 @inner
 def step_checks_on(solver, h):
-    """Whether a map of spacing h samples its steps (the grid is coarser than the resolution)."""
-    return solver.step_resolution > 0.0 and h > solver.step_resolution
+    """Whether a map of spacing h samples its steps: whether its diagonal steps, its longest,
+    are longer than the resolution (a step is sampled only where it is)."""
+    return solver.step_resolution > 0.0 and h * math.sqrt(2.0) > solver.step_resolution
 
 
 # What the next step from a grid point gives (`successor`'s first value): the trajectory goes on
