@@ -43,7 +43,8 @@ from .caging import (REFINEMENT_COLUMNS, best_caging_figure, best_caging_rows, b
                      refinement_rows)
 from . import caging, friction, manipulation, optimized, paper, tip, usage, variable
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
-                   fmt, identity, md_table, part_text, report_files, resolve_top_k)
+                   fmt, identity, md_table, part_text, report_files, resolve_top_k,
+                   screening_error_text)
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
                            manipulation_rows, pose_map_part)
 from .stores import open_store
@@ -371,6 +372,7 @@ def markdown(st: StoreData, rep: Report) -> str:
             L.append(f"- {part_text(row)}: {row['certification']} at h = {fmt(row['finest_h'])}: "
                      + "; ".join(f"{design_text(m)} {fmt(m['refined_caging_area'])} ± "
                                  f"{fmt(m['refined_error'])}" for m in row["near_tie"]) + ".")
+        L += ["", "Numerical error. " + screening_error_text(st)]
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, "
           "`representative_designs.csv`; every design's counts in `caging_vs_tip.csv`)", "",
           md_table(rep.representatives, REP_COLUMNS)]

@@ -43,7 +43,7 @@ from .caging import best_caging_rows
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, REPORT_FORMAT, TIE_DIGITS, Comparison,
                    StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
-                   report_files, scene_label, scene_name)
+                   report_files, scene_label, scene_name, screening_error_text)
 from .manipulation import candidate_rows, manipulation_rows
 from .stores import open_pair
 from .tip import caging_tip_parts, representative_rows
@@ -458,6 +458,7 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
                      f"{fmt(row[f'finest_h_{s}'])}: "
                      + "; ".join(f"{design_text(m)} {fmt(m['refined_caging_area'])} ± "
                                  f"{fmt(m['refined_error'])}" for m in members) + ".")
+        L += ["", f"Scene {s}'s numerical error. " + screening_error_text(st)]
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, `caging_vs_tip.csv`, "
           "`representative_designs.csv`)", "",
           md_table(rep.caging_tip_summary, CT_SUMMARY_COLUMNS), "",

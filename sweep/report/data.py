@@ -17,7 +17,7 @@ from .. import __version__
 from ..files import write_bytes_atomic
 from ..storage.optimized import optimization_created
 from ..storage.schedule import schedule_created
-from ..storage.refined import designs_of_coords, equal_r_classes, part_outcome, ranking
+from ..storage.refined import ROLE, designs_of_coords, equal_r_classes, part_outcome, ranking
 from ..storage.h5 import StoreError
 
 
@@ -226,6 +226,57 @@ def best_design(st: StoreData, ri: int, mi: int) -> dict:
                                   bound_held=out.bound_held)
                              for m in out.members])
     return row
+
+
+#: The refinement's roles whose designs it recomputed at finer spacings, in two groups: the audit's
+#: stratified random sample of the designs it left out (an estimate of the screening's error
+#: on the many), and the contenders (the designs the screening ranked highest).
+ERROR_GROUPS = (("audited", ("audited",)), ("contenders", ("eliminated", "near_tie", "best")))
+
+
+def screening_error(st: StoreData) -> list[dict]:
+    """How far the screening's caging areas are from the refinement's values (model-notes D37), over
+    the designs the refinement recomputed, per ERROR_GROUPS: the group, the number of designs,
+    how many are within 5 % and within 15 % (relatively, or, below 1 % of the part's best refined
+    value, absolutely against 1 % of it: docs/accuracy.md's rule) and the median relative change.
+    Empty for a store that is not refined."""
+    if not st.refined:
+        return []
+    role = st.ds["refine_role"].values
+    screened = st.ds["caging_area"].values
+    refined = st.ds["refined_caging_area"].values
+    # the part's best refined value, over the design axes (the part's are the last two)
+    axes = tuple(range(refined.ndim - 2))
+    best = np.nanmax(np.where(np.isfinite(refined), refined, -np.inf), axis=axes,
+                     keepdims=True)
+    best = np.broadcast_to(np.where(np.isfinite(best), best, 0.0), refined.shape)
+    rows = []
+    for group, names in ERROR_GROUPS:
+        mask = np.isin(role, [ROLE[n] for n in names]) & np.isfinite(refined)
+        s, f, b = screened[mask], refined[mask], best[mask]
+        change = np.abs(s - f)
+        small = f < 0.01 * b
+        rel = change / np.maximum(f, 0.01 * b + 1e-300)
+        w5 = np.where(small, change < 0.01 * b, change <= 0.05 * f)
+        w15 = np.where(small, change < 0.01 * b, change <= 0.15 * f)
+        rows.append(dict(group=group, n=int(mask.sum()), within5=int(w5.sum()),
+                         within15=int(w15.sum()),
+                         median=float(np.median(rel)) if rel.size else math.nan))
+    return rows
+
+
+def screening_error_text(st: StoreData) -> str:
+    """One sentence of screening_error for the reports ("" for a store that is not refined)."""
+    rows = screening_error(st)
+    if not rows:
+        return ""
+    parts = [f"{r['group']}: {r['within5']} of {r['n']} within 5 % and {r['within15']} within "
+             f"15 % of their refined values, median change {r['median']:.1%}"
+             for r in rows if r["n"]]
+    return ("The screening's caging areas against the refinement's (the designs it recomputed at "
+            "finer spacings; model-notes D37): " + "; ".join(parts) + ". The tip-prehension "
+            "counts, Scenario A, B and the parameter usage are the screening's, not refined "
+            "(their error as h halves: `scripts/experiment_convergence.py`, docs/accuracy.md).")
 
 
 def representative_designs(caged: np.ndarray, tip: np.ndarray) -> dict[str, int]:
