@@ -15,7 +15,9 @@ change is at most 5 %, or (a value of the finest grid below 1 % of the output's 
 part) its absolute change is below 1 % of that largest. The slice: `l1` in {1.2, 2.0}, `l2` in
 {0.8, 1.6}, `r1` and `r2` at their ends and middle, every `w`: 216 designs x 16 parts. Each
 spacing's store is kept in --work, so a rerun only reads them (and a killed one resumes). A scene
-with `tip_contact` has no manipulation metric: its tables have the two areas only.
+with `tip_contact` has no manipulation metric: its tables have the two areas only. With --table,
+the coarsest spacing's rows go into the table the reports print each experiment's error from
+(sweep/report/experiment_error.csv; rows of the same scene, spacing and output replaced).
 """
 from __future__ import annotations
 
@@ -29,16 +31,10 @@ import h5py
 import numpy as np
 import yaml
 
+from sweep.config.parse import load_scene
+from sweep.report.experiment_error import EXPERIMENT_ERROR_TABLE, OUTPUTS, scene_key, write_rows
+
 SLICE = {"l1": [1.2, 2.0], "l2": [0.8, 1.6], "r1": [0.04, 0.12, 0.2], "r2": [0.02, 0.1, 0.18]}
-OUTPUTS = (  # (store variable, what reads it)
-    ("caging_area", "best caging designs; caging vs tip prehension"),
-    ("tip_prehension_area", "caging vs tip prehension"),
-    ("manipulation_a_area", "Scenario A (and A against B)"),
-    ("manipulation_b_area", "Scenario B (and A against B)"),
-    ("parameter_usage", "parameter usage"),
-)
-
-
 def slice_config(config: Path, h: float, out: Path) -> Path:
     """The config's slice at spacing h, without refinement, with every candidate in Scenario A
     where the config has the manipulation metric (a scene with `tip_contact` has none)."""
@@ -98,6 +94,9 @@ def main(argv=None) -> int:
     ap.add_argument("--work", type=Path, required=True, help="folder for the configs and stores")
     ap.add_argument("--sweep", default=str(Path(sys.executable).with_name("sweep")),
                     help="the sweep command [the one beside this Python]")
+    ap.add_argument("--table", nargs="?", type=Path, const=EXPERIMENT_ERROR_TABLE, default=None,
+                    help="also write the coarsest spacing's rows into this table [with no "
+                    "value: the one the reports read]")
     args = ap.parse_args(argv)
     args.work.mkdir(parents=True, exist_ok=True)
     stores = []
@@ -115,6 +114,13 @@ def main(argv=None) -> int:
             values.append({name: f[name][...].astype(float) for name, _ in OUTPUTS
                            if name in f})
     ref_h = args.h[-1]
+    designs = int(np.prod([len(v) for v in SLICE.values()]))
+    with h5py.File(stores[0], "r") as f:
+        effects_on = str(f.attrs.get("effects_on", ""))
+        widths = int(f["w"].size)
+        parts = int(f["r"].size * f["mu"].size)
+    accuracy = load_scene(args.work / f"{args.config.stem}-{args.h[0]:g}.yaml").accuracy
+    table_rows = []
     print(f"### {args.config.name}: the slice's outputs at each spacing against h = {ref_h:g}\n")
     print("| output | read by | h | values | median change | 90th percentile | worst "
           "| within 5 % | within 15 % |")
@@ -127,6 +133,18 @@ def main(argv=None) -> int:
             print(f"| `{name}` | {reader} | {h:g} | {s['n']} | {s['median']:.2%} | "
                   f"{s['p90']:.2%} | {s['worst']:.2%} | {s['within5']:.1%} | "
                   f"{s['within15']:.1%} |")
+            if h == args.h[0]:
+                table_rows.append(dict(
+                    scene=scene_key(effects_on, accuracy.trajectory, accuracy.step_resolution),
+                    h=f"{h:g}", reference_h=f"{ref_h:g}", output=name,
+                    slice=f"a slice of {designs * widths} designs x {parts} parts",
+                    measured=time.strftime("%Y-%m-%d"),
+                    command=f"scripts/experiment_convergence.py configs/{args.config.name}",
+                    **{k: f"{s[k]:.6g}" for k in ("n", "median", "p90", "worst", "within5",
+                                                  "within15")}))
+    if args.table is not None:
+        write_rows(table_rows, args.table)
+        print(f"# wrote {len(table_rows)} rows into {args.table}", file=sys.stderr)
     return 0
 
 

@@ -45,6 +45,7 @@ from . import caging, friction, manipulation, optimized, paper, tip, usage, vari
 from .data import (DESIGN_DIMS, MARKER, PARAMETERS, TIE_DIGITS, StoreData, csv_bytes, design_text,
                    fmt, identity, md_table, part_text, report_files, resolve_top_k,
                    screening_error_text)
+from .experiment_error import experiment_error_text
 from .manipulation import (CAND_COLUMNS, MANIP_COLUMNS, candidate_rows, manipulation_figure,
                            manipulation_rows, pose_map_part)
 from .stores import open_store
@@ -373,9 +374,11 @@ def markdown(st: StoreData, rep: Report) -> str:
                      + "; ".join(f"{design_text(m)} {fmt(m['refined_caging_area'])} ± "
                                  f"{fmt(m['refined_error'])}" for m in row["near_tie"]) + ".")
         L += ["", "Numerical error. " + screening_error_text(st)]
+    L += ["", experiment_error_text(st, ["caging_area"])]
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, "
           "`representative_designs.csv`; every design's counts in `caging_vs_tip.csv`)", "",
-          md_table(rep.representatives, REP_COLUMNS)]
+          md_table(rep.representatives, REP_COLUMNS), "",
+          experiment_error_text(st, ["caging_area", "tip_prehension_area"])]
     if st.manipulation:
         best_c = next(c for c in rep.candidates if c["best"])
         L += ["", "## 3. In-hand manipulation (`manipulation.png`, `manipulation.csv`, "
@@ -390,9 +393,11 @@ def markdown(st: StoreData, rep: Report) -> str:
               f"Per-pose maps drawn for part {part_text(rep.pose_part)}.", "",
               "Candidates, largest summed metric first (at most 20 here; all in the CSV):", "",
               md_table(sorted(rep.candidates, key=lambda c: -c["a_sum"])[:20], CAND_COLUMNS),
+              "", experiment_error_text(st, ["manipulation_a_area", "manipulation_b_area"]),
               "", "## 4. Parameter usage, Scenario B (`parameter_usage.png`, "
               "`parameter_usage.csv`)", "",
-              md_table(rep.usage, USAGE_COLUMNS)]
+              md_table(rep.usage, USAGE_COLUMNS), "",
+              experiment_error_text(st, ["parameter_usage"])]
     else:
         L += ["", "## 3, 4. Manipulation and parameter usage", "",
               "Skipped: this store has no manipulation variables. Rerun the sweep with "

@@ -44,6 +44,7 @@ from .data import (DESIGN_DIMS, MARKER, PARAMETERS, REPORT_FORMAT, TIE_DIGITS, C
                    StoreData,
                    crossing, csv_bytes, design_text, fmt, identity, md_table,
                    report_files, scene_label, scene_name, screening_error_text)
+from .experiment_error import experiment_error_text
 from .manipulation import candidate_rows, manipulation_rows
 from .stores import open_pair
 from .tip import caging_tip_parts, representative_rows
@@ -303,6 +304,12 @@ def _part(row) -> str:
     return f"r = {fmt(row['r'])}, mu = {fmt(row['mu'])}"
 
 
+def _errors(st1: StoreData, st2: StoreData, outputs: list[str]) -> list[str]:
+    """Each scene's numerical error of the named outputs (experiment_error), as report lines."""
+    return ["", *[f"Scene {s}: " + experiment_error_text(st, outputs)
+                  for s, st in (("1", st1), ("2", st2))]]
+
+
 def _pct(x, total) -> str:
     return fmt(100.0 * x / total if total else float("nan")) + " %"
 
@@ -459,10 +466,12 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
                      + "; ".join(f"{design_text(m)} {fmt(m['refined_caging_area'])} ± "
                                  f"{fmt(m['refined_error'])}" for m in members) + ".")
         L += ["", f"Scene {s}'s numerical error. " + screening_error_text(st)]
+    L += _errors(st1, st2, ["caging_area"])
     L += ["", "## 2. Caging versus tip prehension (`caging_vs_tip.png`, `caging_vs_tip.csv`, "
           "`representative_designs.csv`)", "",
           md_table(rep.caging_tip_summary, CT_SUMMARY_COLUMNS), "",
           md_table(rep.representatives, REP_COLUMNS)]
+    L += _errors(st1, st2, ["caging_area", "tip_prehension_area"])
     if rep.manipulation:
         L += ["", "## 3. Scenario A versus Scenario B per part (`manipulation.png`, "
               "`manipulation.csv`, `scenario_a_candidates.csv`)", "",
@@ -472,8 +481,10 @@ def markdown(st1: StoreData, st2: StoreData, rep: Comparison) -> str:
               md_table(rep.manipulation, MANIP_COLUMNS), "",
               "Best candidates:", "",
               md_table([c for c in rep.candidates if c["best"]], CAND_COLUMNS),
+              *_errors(st1, st2, ["manipulation_a_area", "manipulation_b_area"]),
               "", "## 4. Parameter usage, Scenario B (`parameter_usage.png`, "
-              "`parameter_usage.csv`)", "", md_table(rep.usage, USAGE_COLUMNS)]
+              "`parameter_usage.csv`)", "", md_table(rep.usage, USAGE_COLUMNS),
+              *_errors(st1, st2, ["parameter_usage"])]
     else:
         L += ["", "## 3, 4. Manipulation and parameter usage", "",
               "Skipped: the stores have no manipulation variables (config option "

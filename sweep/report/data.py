@@ -276,7 +276,7 @@ def screening_error_text(st: StoreData) -> str:
     return ("The screening's caging areas against the refinement's (the designs it recomputed at "
             "finer spacings; model-notes D37): " + "; ".join(parts) + ". The tip-prehension "
             "counts, Scenario A, B and the parameter usage are the screening's, not refined "
-            "(their error as h halves: `scripts/experiment_convergence.py`, docs/accuracy.md).")
+            "(each section states their error as h halves, measured on a slice).")
 
 
 def representative_designs(caged: np.ndarray, tip: np.ndarray) -> dict[str, int]:
