@@ -67,7 +67,7 @@ optimize: $(RUN_STAMP)
 # best chassis and of (2.0, 1.6), the best against the best fixed setting with its error
 # (ladder h, h/2, h/4), into results/paper.schedule.h5 and results/paper-collision.schedule.h5
 # (resumes if killed, a no-op when done); then `make run`'s report again, now with section 7
-# and variable_geometry_1.png, _2.png. Its own target: it costs 0.26-0.33x the screening of a
+# and variable_geometry_1.png, _2.png. Its own target: it costs 0.22-0.26x the screening of a
 # scene (docs/performance.md), above the 0.2x `make run` may take.
 variable: $(RUN_STAMP)
 	$(VENV)/bin/sweep schedule results/paper.h5
