@@ -11,6 +11,7 @@ region held by friction, typically across a crease), the end is that point's (ca
 prehension), else stalled. Model evaluations off the grid, as the slides make them.
 
     .venv/bin/python docs/notes/one_limit.py [--h 0.0125] [--starts 25] [--seed 7] [--rho 0.002]
+        [--config configs/paper-collision.yaml]
 
 1. Maps: low-friction small parts (r 0.4, 0.8; mu 0.1, 0.4) on designs of the screening
    sample, caging area by sliding, grid8 and continuous at h.
@@ -29,6 +30,7 @@ import numpy as np
 
 from sweep.compute.layout import kernel_records
 from sweep.compute.maps import compute_map
+from sweep.config.parse import load_scene
 from sweep.kernels.outcome import point_outcome
 from sweep.kernels.records import Hand
 from sweep.model import (END_CAGED, END_EJECTION, END_STALLED, END_TIP_PREHENSION, Accuracy,
@@ -87,7 +89,8 @@ def stop_end(x, y, m):
     stable region (a crease whose one side is held by friction) when a point within 2 RHO of
     it is stable (caged or tip prehension, by the map's rules at that point), else it stalls."""
     w = compute_map(m.design, m.part, grid=Grid(h=RHO / 2, xlim=(x - 2 * RHO, x + 2 * RHO),
-                                                ylim=(y - 2 * RHO, y + 2 * RHO)))
+                                                ylim=(y - 2 * RHO, y + 2 * RHO)),
+                    effects=m.effects)
     stable = w.fields["equilibrium"] & (w.fields["point_class"] == REACHED)
     if not stable.any():
         return END_STALLED
@@ -104,8 +107,11 @@ def main(argv=None) -> int:
     ap.add_argument("--controls", type=int, default=10,
                     help="per map, starts where the methods agree (a check of the reference)")
     ap.add_argument("--rho", type=float, default=RHO, help="the reference's step [0.002]")
+    ap.add_argument("--config", help="take the scene's effects from this config "
+                    "(e.g. configs/paper-collision.yaml) [the paper's model]")
     args = ap.parse_args(argv)
     RHO = args.rho
+    effects = load_scene(args.config).effects if args.config else Effects()
     methods = ("sliding", "grid8", "continuous")
     rows = []
     print(f"## Caging areas at h = {args.h:g}\n\n| design | part | sliding | grid8 | continuous |"
@@ -113,7 +119,8 @@ def main(argv=None) -> int:
     for d in DESIGNS:
         for p in PARTS:
             maps = {t: compute_map(Design(*d), Part(*p), grid=Grid(h=args.h),
-                                   accuracy=Accuracy(trajectory=t)) for t in methods}
+                                   accuracy=Accuracy(trajectory=t), effects=effects)
+                    for t in methods}
             a = {t: float(maps[t].attrs["caging_area"]) for t in methods}
             rows.append((abs(a["sliding"] - a["continuous"]), d, p, maps))
             print(f"| {d} | {p} | {a['sliding']:.4f} | {a['grid8']:.4f} | "
@@ -129,7 +136,7 @@ def main(argv=None) -> int:
     for _, d, p, maps in sorted(rows, key=lambda r: -r[0])[:args.maps]:
         m = maps["sliding"]
         finger, solver, blocks = kernel_records(Design(*d), Part(*p), Limits(), Accuracy(),
-                                                Effects())
+                                                effects)
         hand = Hand(d[4], 1.0, 1.0, args.h, finger.mu_s, finger.mu_s)
 
         def evaluate(x, y, finger=finger, solver=solver, blocks=blocks, hand=hand):
