@@ -32,6 +32,7 @@ import numpy as np
 import yaml
 
 from sweep.config.parse import load_scene
+from sweep.report.data import within_error
 from sweep.report.experiment_error import EXPERIMENT_ERROR_TABLE, OUTPUTS, scene_key, write_rows
 
 SLICE = {"l1": [1.2, 2.0], "l2": [0.8, 1.6], "r1": [0.04, 0.12, 0.2], "r2": [0.02, 0.1, 0.18]}
@@ -48,13 +49,6 @@ def slice_config(config: Path, h: float, out: Path) -> Path:
     cfg["name"] = f"{cfg.get('name', 'sweep')}-conv-{h:g}"
     out.write_text(yaml.safe_dump(cfg, sort_keys=False))
     return out
-
-
-def within(coarse: np.ndarray, fine: np.ndarray, largest: np.ndarray, bound: float):
-    """The rule of the module docstring, elementwise (largest broadcast per part)."""
-    small = fine < 0.01 * largest
-    return np.where(small, np.abs(coarse - fine) < 0.01 * largest,
-                    np.abs(coarse - fine) <= bound * np.abs(fine))
 
 
 def part_axes(name: str, ndim: int) -> tuple[int, ...]:
@@ -74,8 +68,8 @@ def compare(name: str, coarse: np.ndarray, fine: np.ndarray) -> dict:
         if axes else np.abs(fine)
     largest = np.where(np.isfinite(largest), largest, 0.0)
     rel = np.abs(coarse - fine) / np.maximum(np.abs(fine), 0.01 * largest + 1e-300)
-    w5 = within(coarse, fine, largest, 0.05)[ok]
-    w15 = within(coarse, fine, largest, 0.15)[ok]
+    w5 = within_error(coarse, fine, largest, 0.05)[ok]
+    w15 = within_error(coarse, fine, largest, 0.15)[ok]
     r = rel[ok]
     return dict(n=int(ok.sum()), median=float(np.median(r)) if r.size else float("nan"),
                 p90=float(np.percentile(r, 90)) if r.size else float("nan"),
@@ -138,7 +132,6 @@ def main(argv=None) -> int:
                     scene=scene_key(effects_on, accuracy.trajectory, accuracy.step_resolution),
                     h=f"{h:g}", reference_h=f"{ref_h:g}", output=name,
                     slice=f"a slice of {designs * widths} designs x {parts} parts",
-                    measured=time.strftime("%Y-%m-%d"),
                     command=f"scripts/experiment_convergence.py configs/{args.config.name}",
                     **{k: f"{s[k]:.6g}" for k in ("n", "median", "p90", "worst", "within5",
                                                   "within15")}))

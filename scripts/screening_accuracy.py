@@ -28,6 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from sweep.compute.maps import compute_map  # noqa: E402
 from sweep.config.parse import scene_from_frozen  # noqa: E402
 from sweep.model import Design, Grid, Part  # noqa: E402
+from sweep.report.data import within_error  # noqa: E402
 from sweep.runs.refine import design_table, part_table, screened_matrix  # noqa: E402
 from sweep.storage.store import read_store  # noqa: E402
 
@@ -51,14 +52,6 @@ def sample(screened: np.ndarray, per_part: int, seed: int) -> list[tuple[int, in
         picked += rng.choice(order[lo:], per_part - len(picked), replace=False).tolist()
         pairs += [(p, int(d)) for d in picked]
     return pairs
-
-
-def within(coarse: float, fine: float, best: float, bound: float) -> bool:
-    """The issue's rule: relative error at most `bound`, or (converged below 1 % of the part's
-    best) absolute error below 1 % of it."""
-    if fine < 0.01 * best:
-        return abs(coarse - fine) < 0.01 * best
-    return abs(coarse - fine) <= bound * fine
 
 
 def main(argv=None) -> int:
@@ -99,9 +92,11 @@ def main(argv=None) -> int:
         best = {}
         for r in rows:
             best[r["part"]] = max(best.get(r["part"], 0.0), r[f"{what}_fine"])
-        ok5 = sum(within(r[f"{what}_coarse"], r[f"{what}_fine"], best[r["part"]], 0.05)
+        ok5 = sum(bool(within_error(r[f"{what}_coarse"], r[f"{what}_fine"], best[r["part"]],
+                                    0.05))
                   for r in rows)
-        ok15 = sum(within(r[f"{what}_coarse"], r[f"{what}_fine"], best[r["part"]], 0.15)
+        ok15 = sum(bool(within_error(r[f"{what}_coarse"], r[f"{what}_fine"], best[r["part"]],
+                                     0.15))
                    for r in rows)
         print(f"{what} area: within 5 %: {ok5}/{len(rows)} ({ok5 / len(rows):.1%}); "
               f"within 15 %: {ok15}/{len(rows)} ({ok15 / len(rows):.1%})")

@@ -24,7 +24,7 @@ def row(output, within5, scene=None, h="0.05"):
     return dict(scene=scene or scene_key("friction finger_collision", "sliding", 0.025), h=h,
                 reference_h="0.0125", output=output, n="100", median="0.01", p90="0.08",
                 worst="2.5", within5=str(within5), within15="0.97", slice="a slice",
-                measured="2026-12-05", command="scripts/experiment_convergence.py x.yaml")
+                command="scripts/experiment_convergence.py x.yaml")
 
 
 def test_a_row_applies_to_its_scene_in_any_order_of_the_effects(tmp_path):

@@ -18,12 +18,8 @@ import numpy as np
 
 from sweep.compute.maps import compute_map
 from sweep.config.parse import load_scene
+from sweep.report.data import within_error
 from sweep.model import END_CAGED, END_STALLED, Design, Grid, Part
-
-
-def within(c, f, b, bound=0.05):
-    """docs/accuracy.md's rule: relative, or absolute against 1 % of the part's best."""
-    return abs(c - f) < 0.01 * b if f < 0.01 * b else abs(c - f) <= bound * f
 
 
 def main(argv):
@@ -69,9 +65,9 @@ def main(argv):
                 gain += s * float(np.sum(weight[(es == END_STALLED) & (ei == q)])) * h * h
         t_win += time.perf_counter() - t0
         b = best[r["part"]]
-        n5 += within(area + gain, f, b)
-        n15 += within(area + gain, f, b, 0.15)
-        n5_old += within(area, f, b)
+        n5 += bool(within_error(area + gain, f, b, 0.05))
+        n15 += bool(within_error(area + gain, f, b, 0.15))
+        n5_old += bool(within_error(area, f, b, 0.05))
     print(f"K {k}, W {half:g}: within 5 % {n5}/{len(rows)} (without the windows {n5_old}), "
           f"within 15 % {n15}; {windows} windows, {t_win:.1f} s against {t_map:.1f} s of maps")
 

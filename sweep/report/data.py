@@ -228,6 +228,16 @@ def best_design(st: StoreData, ri: int, mi: int) -> dict:
     return row
 
 
+def within_error(coarse, fine, largest, bound):
+    """docs/accuracy.md's rule for a value against its converged one, elementwise: the relative
+    change at most `bound`, or, where the converged value is below 1 % of `largest` (the part's
+    largest), the absolute change below 1 % of `largest`."""
+    coarse, fine, largest = np.asarray(coarse), np.asarray(fine), np.asarray(largest)
+    change = np.abs(coarse - fine)
+    return np.where(np.abs(fine) < 0.01 * largest, change < 0.01 * largest,
+                    change <= bound * np.abs(fine))
+
+
 #: The refinement's roles whose designs it recomputed at finer spacings, in two groups: the audit's
 #: stratified random sample of the designs it left out (an estimate of the screening's error
 #: on the many), and the contenders (the designs the screening ranked highest).
@@ -255,10 +265,9 @@ def screening_error(st: StoreData) -> list[dict]:
         mask = np.isin(role, [ROLE[n] for n in names]) & np.isfinite(refined)
         s, f, b = screened[mask], refined[mask], best[mask]
         change = np.abs(s - f)
-        small = f < 0.01 * b
         rel = change / np.maximum(f, 0.01 * b + 1e-300)
-        w5 = np.where(small, change < 0.01 * b, change <= 0.05 * f)
-        w15 = np.where(small, change < 0.01 * b, change <= 0.15 * f)
+        w5 = within_error(s, f, b, 0.05)
+        w15 = within_error(s, f, b, 0.15)
         rows.append(dict(group=group, n=int(mask.sum()), within5=int(w5.sum()),
                          within15=int(w15.sum()),
                          median=float(np.median(rel)) if rel.size else math.nan))

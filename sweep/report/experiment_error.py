@@ -28,7 +28,7 @@ OUTPUTS = (
 )
 
 COLUMNS = ["scene", "h", "reference_h", "output", "n", "median", "p90", "worst", "within5",
-           "within15", "slice", "measured", "command"]
+           "within15", "slice", "command"]
 
 
 def scene_key(effects_on: str, trajectory: str, step_resolution: float) -> str:
@@ -89,5 +89,5 @@ def experiment_error_text(st: StoreData, outputs,
              f"90th percentile {float(r['p90']):.1%}, worst {float(r['worst']):.0%})"
              for r in rows]
     return (f"Numerical error at h = {fmt(st.scene.h)} against h = {fmt(float(r0['reference_h']))}"
-            f", measured on {r0['slice']} of this scene ({r0['measured']}, "
-            f"`{r0['command']}`): " + "; ".join(parts) + ".")
+            f", measured on {r0['slice']} of this scene (`{r0['command']}`; "
+            "docs/accuracy.md): " + "; ".join(parts) + ".")
