@@ -1,4 +1,4 @@
-"""One limit for the trajectories (model-notes D38, issue P21): where sliding, grid8 and
+"""One limit for the trajectories (model-notes D38): where sliding, grid8 and
 continuous disagree, the model's trajectory (MODEL 8, followed here on the true energy with
 small steps, a slow reference written for this test) ends as sliding does. The case: a part that
 slides down onto a crease whose other side is held by friction (the edge of a stable region)

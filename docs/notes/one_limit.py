@@ -1,4 +1,4 @@
-"""Which trajectory method converges to the model's trajectory where they disagree (P21, "one
+"""Which trajectory method converges to the model's trajectory where they disagree ("one
 limit"; docs/accuracy.md, "One limit"). MODEL 8: from each start the part follows the energy
 downhill (the steepest descent of a non-smooth function, sliding along creases) until it is
 stable or leaves P_j. The reference here follows that definition on the true energy, with

@@ -1,4 +1,4 @@
-"""Where the screening's error sits, and a prototype that removes part of it (issue P21;
+"""Where the screening's error sits, and a prototype that removes part of it (
 docs/accuracy.md, "Where the screening's error sits").
 
     .venv/bin/python docs/notes/stall_windows.py CONFIG SCREENING_CSV [K] [W]
