@@ -1,5 +1,5 @@
-"""Where the screening's error sits, and a prototype that removes part of it (
-docs/accuracy.md, "Where the screening's error sits").
+"""Where the screening's error sits, and a prototype that removes part of it
+(docs/accuracy.md, "Where the screening's error sits").
 
     .venv/bin/python docs/notes/stall_windows.py CONFIG SCREENING_CSV [K] [W]
 
