@@ -143,7 +143,7 @@ def memo_for_slide(memo):
     return bigger
 
 
-@inner
+@inner(inline="always")
 def memo_has_room(memo):
     """Whether the next slide can use the memo as it is (memo_for_slide). A test of two numbers:
     the caller replaces its memo only when this fails, since every replacement of a record of
@@ -232,7 +232,7 @@ def step_check(x0, y0, e_top, x1, y1, resolution, finger, solver, effects, hand,
     return STEP_CLEAR, x1, y1
 
 
-@inner
+@inner(inline="always")
 def closing_stage(first):
     """Which stage of the closing sequence (MODEL 4) made a finger's first contact, from the
     first contact's mode (kernels.finger codes): 0 the proximal link, 1 the distal link in the
@@ -247,26 +247,25 @@ def closing_stage(first):
     return 3
 
 
-@inner
-def same_stages(p, q, nx, fingers, finger, collision_on):
+@inner(inline="always")
+def same_stages(p, q, nx, first, mode, t1, t2, finger, collision_on):
     """Whether each finger made its first contact in the same stage of the closing sequence at
-    the flat grid points p and q (`fingers`: the map's FingerArrays), and, with
-    finger_collision, neither point has a finger stopped on the other (a meeting is a wall of
-    its own: the stopped finger is less closed, its energy higher)."""
+    the flat grid points p and q (`first`, `mode`, `t1`, `t2`: the map's FingerArrays fields,
+    read once by the caller: each read of a record's field is a reference-count pair), and,
+    with finger_collision, neither point has a finger stopped on the other (a meeting is a wall
+    of its own: the stopped finger is less closed, its energy higher)."""
     jp = p // nx
     ip = p - jp * nx
     jq = q // nx
     iq = q - jq * nx
-    first = fingers.first_event
     for side in range(2):
         if closing_stage(first[side, jp, ip]) != closing_stage(first[side, jq, iq]):
             return False
         if collision_on and (
-                rests_on_other_finger(np.int64(fingers.mode[side, jp, ip]),
-                                      fingers.t1[side, jp, ip], fingers.t2[side, jp, ip], finger)
-                or rests_on_other_finger(np.int64(fingers.mode[side, jq, iq]),
-                                         fingers.t1[side, jq, iq], fingers.t2[side, jq, iq],
-                                         finger)):
+                rests_on_other_finger(np.int64(mode[side, jp, ip]),
+                                      t1[side, jp, ip], t2[side, jp, ip], finger)
+                or rests_on_other_finger(np.int64(mode[side, jq, iq]),
+                                         t1[side, jq, iq], t2[side, jq, iq], finger)):
             return False
     return True
 
@@ -283,6 +282,8 @@ def checked_neighbour(energy, point_class, fingers, xs, ys, i, j, h, resolution,
     ny, nx = energy.shape
     here = energy[j, i]
     diagonal = h * math.sqrt(2.0)
+    first, mode, t1, t2 = fingers.first_event, fingers.mode, fingers.t1, fingers.t2
+    collision_on = effects.finger_collision.on
     tried = 0
     for _ in range(8):
         best = -1
@@ -305,7 +306,7 @@ def checked_neighbour(energy, point_class, fingers, xs, ys, i, j, h, resolution,
             break
         tried |= 1 << best
         q = (j + NEIGHBOUR_DJ[best]) * nx + i + NEIGHBOUR_DI[best]
-        if same_stages(j * nx + i, q, nx, fingers, finger, effects.finger_collision.on):
+        if same_stages(j * nx + i, q, nx, first, mode, t1, t2, finger, collision_on):
             return STEP_CLEAR, q
         kind, x, y = step_check(xs[i], ys[j], here, xs[q % nx], ys[q // nx], resolution,
                                 finger, solver, effects, hand, memo, context)
@@ -316,7 +317,7 @@ def checked_neighbour(energy, point_class, fingers, xs, ys, i, j, h, resolution,
     return STEP_BLOCKED, -1
 
 
-@entry
+@entry(inline="always")  # a leaf called at every grid step of trajectories_from
 def downhill_neighbour(energy, point_class, i, j, h):
     """Flat index of the steepest strictly-lower feasible neighbour of (j, i), or -1."""
     ny, nx = energy.shape
@@ -590,6 +591,8 @@ def trajectories_from(p_start, outs, end_state, end_index, fingers, xs, ys, fing
     size = ny * nx
     no_path = np.empty((0, 2))
     context = slide_context(finger, hand.w, effects.finger_collision)
+    first, mode, t1, t2 = fingers.first_event, fingers.mode, fingers.t1, fingers.t2
+    collision_on = effects.finger_collision.on
     for p0 in range(p_start, size):
         j0 = p0 // nx
         i0 = p0 - j0 * nx
@@ -616,8 +619,15 @@ def trajectories_from(p_start, outs, end_state, end_index, fingers, xs, ys, fing
                 state = END_CAGED if caged[j, i] else END_TIP_PREHENSION
                 last = p
                 break
-            if not memo_has_room(memo) and (
-                    checks or (sliding and downhill_neighbour(energy, point_class, i, j, h) < 0)):
+            # the grid step that needs no evaluation of the model, here rather than in
+            # `successor`: the call passes some twenty arrays, a reference-count pair each
+            # (docs/architecture.md), at every step; `successor` takes the same first choice
+            q = downhill_neighbour(energy, point_class, i, j, h)
+            if q >= 0 and (not checks or same_stages(p, q, nx, first, mode, t1, t2, finger,
+                                                     collision_on)):
+                p = q
+                continue
+            if not memo_has_room(memo) and (checks or (sliding and q < 0)):
                 return p0
             state, q, _ = successor(energy, point_class, equilibrium, fingers, xs, ys, i, j,
                                            finger, solver, effects, hand, sliding, no_path,
